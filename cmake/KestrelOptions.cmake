@@ -1,0 +1,33 @@
+# Warnings and sanitizers for Kestrel's own targets (not for third-party code).
+add_library(kestrel_options INTERFACE)
+target_compile_options(kestrel_options INTERFACE -Wall -Wextra -Wpedantic)
+# GCC 12 reports -Wrestrict falsely inside libstdc++'s std::string operator+ (GCC bug 105329).
+if(CMAKE_CXX_COMPILER_ID STREQUAL "GNU" AND CMAKE_CXX_COMPILER_VERSION VERSION_LESS 13)
+  target_compile_options(kestrel_options INTERFACE -Wno-restrict)
+endif()
+target_include_directories(kestrel_options INTERFACE ${PROJECT_SOURCE_DIR})
+target_compile_definitions(kestrel_options INTERFACE
+  KESTREL_VERSION="${PROJECT_VERSION}"
+  KESTREL_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
+
+if(KESTREL_SANITIZE_ADDRESS)
+  target_compile_options(kestrel_options INTERFACE -fsanitize=address,undefined -fno-omit-frame-pointer
+                                                   -fno-sanitize-recover=undefined)
+  target_link_options(kestrel_options INTERFACE -fsanitize=address,undefined)
+endif()
+if(KESTREL_SANITIZE_THREAD)
+  target_compile_options(kestrel_options INTERFACE -fsanitize=thread -fno-omit-frame-pointer)
+  target_link_options(kestrel_options INTERFACE -fsanitize=thread)
+endif()
+
+# kestrel_add_library(NAME SOURCES... [DEPS ...]) — a static library with the project's options.
+function(kestrel_add_library name)
+  cmake_parse_arguments(ARG "" "" "SOURCES;DEPS;PRIVATE_DEPS" ${ARGN})
+  add_library(${name} STATIC ${ARG_SOURCES})
+  target_link_libraries(${name} PUBLIC kestrel_options ${ARG_DEPS} PRIVATE ${ARG_PRIVATE_DEPS})
+endfunction()
+
+# The CLI links every module library that asks for it.
+function(kestrel_app_library name)
+  set_property(GLOBAL APPEND PROPERTY KESTREL_APP_LIBRARIES ${name})
+endfunction()
