@@ -1,0 +1,318 @@
+#include "dynamic/dynamic_filter.hpp"
+
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/video/tracking.hpp>
+
+#include <algorithm>
+#include <cmath>
+
+namespace kestrel::dynamic {
+namespace {
+
+cv::Mat as_mat(const Image& im) {
+  return cv::Mat(im.height, im.width, CV_8UC1, const_cast<std::uint8_t*>(im.data->data()),
+                 im.step());
+}
+
+double median_of(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  const auto mid = v.begin() + static_cast<long>(v.size() / 2);
+  std::nth_element(v.begin(), mid, v.end());
+  return *mid;
+}
+
+// Robust spread: median + k * sigma, sigma from the median absolute deviation.
+double adaptive_threshold(const std::vector<double>& values, double k, double floor_px) {
+  if (values.size() < 5) return floor_px;
+  const double med = median_of(values);
+  std::vector<double> dev;
+  dev.reserve(values.size());
+  for (double v : values) dev.push_back(std::fabs(v - med));
+  const double sigma = 1.4826 * median_of(dev);
+  return std::max(floor_px, med + k * sigma);
+}
+
+double epipolar_distance(const cv::Matx33d& F, const cv::Point2f& prev, const cv::Point2f& cur) {
+  const cv::Vec3d l = F * cv::Vec3d(prev.x, prev.y, 1.0);
+  const double n = std::hypot(l[0], l[1]);
+  if (n < 1e-12) return 0.0;
+  return std::fabs(l[0] * cur.x + l[1] * cur.y + l[2]) / n;
+}
+
+double homography_residual(const cv::Matx33d& H, const cv::Point2f& prev, const cv::Point2f& cur) {
+  const cv::Vec3d p = H * cv::Vec3d(prev.x, prev.y, 1.0);
+  if (std::fabs(p[2]) < 1e-12) return 1e9;
+  return std::hypot(p[0] / p[2] - cur.x, p[1] / p[2] - cur.y);
+}
+
+}  // namespace
+
+const char* to_string(LabelReason r) {
+  switch (r) {
+    case LabelReason::kStaticGeometry:
+      return "static-geometry";
+    case LabelReason::kStaticInBox:
+      return "static-in-box";
+    case LabelReason::kEpipolarInBox:
+      return "epipolar-in-box";
+    case LabelReason::kMovingBox:
+      return "moving-box";
+    case LabelReason::kEpipolarOutside:
+      return "epipolar-outside";
+    case LabelReason::kFlowResidual:
+      return "flow-residual";
+    case LabelReason::kNoFlowInBox:
+      return "no-flow-in-box";
+    case LabelReason::kNoFlow:
+      return "no-flow";
+    case LabelReason::kNoGeometry:
+      return "no-geometry";
+  }
+  return "?";
+}
+
+const char* to_string(FilterMode m) {
+  switch (m) {
+    case FilterMode::kHybrid:
+      return "hybrid";
+    case FilterMode::kDetectionOnly:
+      return "detection";
+    case FilterMode::kGeometryOnly:
+      return "geometry";
+    case FilterMode::kOff:
+      return "off";
+  }
+  return "?";
+}
+
+std::optional<FilterMode> filter_mode_from_string(const std::string& name) {
+  if (name == "hybrid") return FilterMode::kHybrid;
+  if (name == "detection") return FilterMode::kDetectionOnly;
+  if (name == "geometry") return FilterMode::kGeometryOnly;
+  if (name == "off") return FilterMode::kOff;
+  return std::nullopt;
+}
+
+std::size_t DynamicFilterResult::count(FeatureLabel l) const {
+  return static_cast<std::size_t>(std::count(labels.begin(), labels.end(), l));
+}
+
+DynamicFilterResult classify_features(const DynamicFilterInput& in,
+                                      const DynamicFilterOptions& opt) {
+  const std::size_t n = in.points.size();
+  DynamicFilterResult out;
+  out.labels.assign(n, FeatureLabel::kStatic);
+  out.reasons.assign(n, LabelReason::kStaticGeometry);
+  out.epipolar_px.assign(n, -1.0f);
+  out.residual_px.assign(n, -1.0f);
+  out.box_of.assign(n, -1);
+  out.box_moving.assign(in.boxes.size(), false);
+  if (n == 0 || opt.mode == FilterMode::kOff) return out;
+
+  const bool use_boxes = opt.mode != FilterMode::kGeometryOnly;
+  const bool use_geometry = opt.mode != FilterMode::kDetectionOnly;
+
+  // Which boxes hold each feature (a feature may sit in two overlapping boxes).
+  std::vector<std::vector<int>> boxes_of(n);
+  if (use_boxes) {
+    for (std::size_t i = 0; i < n; ++i) {
+      for (std::size_t b = 0; b < in.boxes.size(); ++b) {
+        if (in.boxes[b].contains(static_cast<float>(in.points[i].x()),
+                                 static_cast<float>(in.points[i].y()))) {
+          boxes_of[i].push_back(static_cast<int>(b));
+        }
+      }
+      if (!boxes_of[i].empty()) out.box_of[i] = boxes_of[i].front();
+    }
+  }
+
+  if (!use_geometry) {
+    for (std::size_t i = 0; i < n; ++i) {
+      if (!boxes_of[i].empty()) {
+        out.labels[i] = FeatureLabel::kDynamic;
+        out.reasons[i] = LabelReason::kNoGeometry;
+      }
+    }
+    for (std::size_t b = 0; b < in.boxes.size(); ++b) out.box_moving[b] = true;
+    return out;
+  }
+
+  // 1. Flow from the current frame back to the previous one, forward-backward checked.
+  const cv::Mat prev = as_mat(*in.prev_gray);
+  const cv::Mat cur = as_mat(*in.cur_gray);
+  std::vector<cv::Point2f> pts_cur(n), pts_prev, pts_back;
+  for (std::size_t i = 0; i < n; ++i) {
+    pts_cur[i] =
+        cv::Point2f(static_cast<float>(in.points[i].x()), static_cast<float>(in.points[i].y()));
+  }
+  std::vector<unsigned char> st1, st2;
+  std::vector<float> err;
+  const cv::Size win(opt.lk_window, opt.lk_window);
+  const cv::TermCriteria term(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 20, 0.03);
+  cv::calcOpticalFlowPyrLK(cur, prev, pts_cur, pts_prev, st1, err, win, opt.lk_levels, term);
+  pts_back = pts_cur;
+  cv::calcOpticalFlowPyrLK(prev, cur, pts_prev, pts_back, st2, err, win, opt.lk_levels, term,
+                           cv::OPTFLOW_USE_INITIAL_FLOW);
+  std::vector<bool> valid(n, false);
+  for (std::size_t i = 0; i < n; ++i) {
+    valid[i] = st1[i] && st2[i] &&
+               std::hypot(pts_back[i].x - pts_cur[i].x, pts_back[i].y - pts_cur[i].y) <=
+                   opt.fb_max_error_px &&
+               pts_prev[i].x >= 0 && pts_prev[i].y >= 0 && pts_prev[i].x < prev.cols &&
+               pts_prev[i].y < prev.rows;
+    out.tracked += valid[i] ? 1 : 0;
+  }
+
+  // 2. Ego-motion from features outside every box.
+  std::vector<cv::Point2f> cand_prev, cand_cur;
+  std::vector<std::size_t> cand_idx;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (valid[i] && boxes_of[i].empty()) {
+      cand_prev.push_back(pts_prev[i]);
+      cand_cur.push_back(pts_cur[i]);
+      cand_idx.push_back(i);
+    }
+  }
+  cv::Matx33d F = cv::Matx33d::zeros();
+  cv::Matx33d H = cv::Matx33d::eye();
+  if (cand_idx.size() >= 15) {
+    // The camera is calibrated, so fit the essential matrix (5 DOF, five-point RANSAC) rather
+    // than F (7 DOF): with small baselines F bends to fit a large mover as well.
+    cv::Matx33d Kcv;
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c) Kcv(r, c) = in.K(r, c);
+    }
+    std::vector<unsigned char> e_inliers;
+    const cv::Mat Em = cv::findEssentialMat(cand_prev, cand_cur, cv::Mat(Kcv), cv::RANSAC, 0.999,
+                                            opt.ransac_threshold_px, e_inliers);
+    if (Em.rows == 3 && Em.cols == 3) {  // several solutions come stacked; the first is best
+      const cv::Matx33d Kinv = Kcv.inv();
+      F = Kinv.t() * cv::Matx33d(Em) * Kinv;
+      out.geometry_valid = true;
+    }
+    // Camera (nearly) still or only rotating: the rotation homography (IMU) or identity
+    // explains the static flow. Two views cannot tell "still camera, one mover" from "camera
+    // translating, background at infinity", and RANSAC then fits F to the mover too; so when
+    // the rotation-compensated flow of most features is sub-pixel, the homography test decides.
+    cv::Matx33d H_rot = cv::Matx33d::eye();
+    if (in.R_cur_prev) {
+      const Mat3 Hr = in.K * (*in.R_cur_prev) * in.K.inverse();
+      for (int r = 0; r < 3; ++r) {
+        for (int c = 0; c < 3; ++c) H_rot(r, c) = Hr(r, c);
+      }
+    }
+    std::vector<double> ego_flow;
+    ego_flow.reserve(cand_idx.size());
+    for (std::size_t k = 0; k < cand_idx.size(); ++k) {
+      ego_flow.push_back(homography_residual(H_rot, cand_prev[k], cand_cur[k]));
+    }
+    out.degenerate_motion = !out.geometry_valid || median_of(ego_flow) < opt.still_flow_px;
+    H = H_rot;
+    if (out.degenerate_motion && !in.R_cur_prev) {
+      const cv::Mat Hm = cv::findHomography(cand_prev, cand_cur, cv::RANSAC, 1.0);
+      if (Hm.rows == 3) H = cv::Matx33d(Hm);
+    }
+  }
+
+  if (!out.geometry_valid && !out.degenerate_motion) {
+    // Not enough background to fit ego-motion: boxes alone decide.
+    for (std::size_t i = 0; i < n; ++i) {
+      if (!boxes_of[i].empty()) {
+        out.labels[i] = FeatureLabel::kDynamic;
+        out.reasons[i] = LabelReason::kNoGeometry;
+      } else if (!valid[i]) {
+        out.labels[i] = FeatureLabel::kUnknown;
+        out.reasons[i] = LabelReason::kNoFlow;
+      }
+    }
+    std::fill(out.box_moving.begin(), out.box_moving.end(), true);
+    return out;
+  }
+
+  // 3. Per-feature geometric consistency.
+  std::vector<double> score(n, 0.0);  // the quantity the thresholds apply to
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!valid[i]) continue;
+    out.residual_px[i] = static_cast<float>(homography_residual(H, pts_prev[i], pts_cur[i]));
+    if (out.geometry_valid) {
+      out.epipolar_px[i] = static_cast<float>(epipolar_distance(F, pts_prev[i], pts_cur[i]));
+    }
+    score[i] = out.degenerate_motion ? out.residual_px[i] : out.epipolar_px[i];
+  }
+  std::vector<double> static_scores;
+  static_scores.reserve(cand_idx.size());
+  for (std::size_t i : cand_idx) static_scores.push_back(score[i]);
+  out.outside_threshold_px =
+      adaptive_threshold(static_scores, opt.adaptive_k, opt.outside_min_threshold_px);
+  const double in_box_threshold =
+      out.degenerate_motion ? out.outside_threshold_px : opt.epipolar_threshold_px;
+
+  // 4. Judge each box from its own features' flow: a box is moving when enough of them violate
+  // the ego-motion, and its mover flow is the median flow of those.
+  std::vector<cv::Point2f> mover_flow(in.boxes.size(), cv::Point2f(0, 0));
+  for (std::size_t b = 0; b < in.boxes.size(); ++b) {
+    int inside = 0, violating = 0;
+    std::vector<double> fx, fy;
+    for (std::size_t i = 0; i < n; ++i) {
+      if (!valid[i] || std::find(boxes_of[i].begin(), boxes_of[i].end(), static_cast<int>(b)) ==
+                           boxes_of[i].end()) {
+        continue;
+      }
+      // Features shared with another box say little about this one; count exclusive ones.
+      if (boxes_of[i].size() > 1) continue;
+      ++inside;
+      if (score[i] > in_box_threshold) {
+        ++violating;
+        fx.push_back(pts_cur[i].x - pts_prev[i].x);
+        fy.push_back(pts_cur[i].y - pts_prev[i].y);
+      }
+    }
+    out.box_moving[b] = violating >= 3 && violating >= opt.moving_box_fraction * inside;
+    if (out.box_moving[b]) {
+      mover_flow[b] =
+          cv::Point2f(static_cast<float>(median_of(fx)), static_cast<float>(median_of(fy)));
+    }
+  }
+
+  // 5. Labels.
+  for (std::size_t i = 0; i < n; ++i) {
+    const bool in_box = !boxes_of[i].empty();
+    if (!valid[i]) {
+      out.labels[i] = in_box ? FeatureLabel::kDynamic : FeatureLabel::kUnknown;
+      out.reasons[i] = in_box ? LabelReason::kNoFlowInBox : LabelReason::kNoFlow;
+      continue;
+    }
+    if (!in_box) {
+      if (score[i] > out.outside_threshold_px) {
+        out.labels[i] = FeatureLabel::kDynamic;
+        out.reasons[i] =
+            out.degenerate_motion ? LabelReason::kFlowResidual : LabelReason::kEpipolarOutside;
+      }
+      continue;
+    }
+    if (score[i] > in_box_threshold) {
+      out.labels[i] = FeatureLabel::kDynamic;
+      out.reasons[i] = LabelReason::kEpipolarInBox;
+      continue;
+    }
+    // On its epipolar line: static background seen through the box, or a body part moving
+    // along the line? Compare its flow with the mover flow of each moving box that holds it.
+    const cv::Point2f flow = pts_cur[i] - pts_prev[i];
+    for (int b : boxes_of[i]) {
+      if (!out.box_moving[b]) continue;
+      const cv::Point2f d = flow - mover_flow[b];
+      const double tol = std::max(2.0, 0.3 * std::hypot(mover_flow[b].x, mover_flow[b].y));
+      if (std::hypot(d.x, d.y) <= tol) {
+        out.labels[i] = FeatureLabel::kDynamic;
+        out.reasons[i] = LabelReason::kMovingBox;
+        out.box_of[i] = b;
+        break;
+      }
+    }
+    if (out.labels[i] == FeatureLabel::kStatic) out.reasons[i] = LabelReason::kStaticInBox;
+  }
+  return out;
+}
+
+}  // namespace kestrel::dynamic

@@ -1,0 +1,77 @@
+#include "pipeline/stage_stats.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+namespace kestrel::pipeline {
+
+double percentile(std::vector<double> v, double p) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  const double rank = std::clamp(p, 0.0, 100.0) / 100.0 * static_cast<double>(v.size() - 1);
+  const auto lo = static_cast<std::size_t>(std::floor(rank));
+  const auto hi = std::min(lo + 1, v.size() - 1);
+  const double frac = rank - static_cast<double>(lo);
+  return v[lo] + (v[hi] - v[lo]) * frac;
+}
+
+LatencySummary summarize(const std::vector<double>& ms) {
+  LatencySummary s;
+  s.count = ms.size();
+  if (ms.empty()) return s;
+  s.mean_ms = std::accumulate(ms.begin(), ms.end(), 0.0) / static_cast<double>(ms.size());
+  s.p50_ms = percentile(ms, 50);
+  s.p90_ms = percentile(ms, 90);
+  s.p99_ms = percentile(ms, 99);
+  s.max_ms = *std::max_element(ms.begin(), ms.end());
+  return s;
+}
+
+void StageStats::record(const std::string& stage, double ms) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  samples_[stage].push_back(ms);
+}
+
+void StageStats::count(const std::string& counter, std::size_t n) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  counters_[counter] += n;
+}
+
+void StageStats::set_counter(const std::string& counter, std::size_t n) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  counters_[counter] = n;
+}
+
+std::map<std::string, LatencySummary> StageStats::summaries() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  std::map<std::string, LatencySummary> out;
+  for (const auto& [name, v] : samples_) out[name] = summarize(v);
+  return out;
+}
+
+std::map<std::string, std::size_t> StageStats::counters() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return counters_;
+}
+
+std::vector<double> StageStats::samples(const std::string& stage) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  auto it = samples_.find(stage);
+  return it == samples_.end() ? std::vector<double>{} : it->second;
+}
+
+std::string StageStats::to_json() const {
+  nlohmann::json j;
+  j["stages"] = nlohmann::json::object();
+  for (const auto& [name, s] : summaries()) {
+    j["stages"][name] = {{"count", s.count},   {"mean_ms", s.mean_ms}, {"p50_ms", s.p50_ms},
+                         {"p90_ms", s.p90_ms}, {"p99_ms", s.p99_ms},   {"max_ms", s.max_ms}};
+  }
+  j["counters"] = counters();
+  return j.dump(2);
+}
+
+}  // namespace kestrel::pipeline

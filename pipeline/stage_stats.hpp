@@ -1,0 +1,37 @@
+#pragma once
+// Per-stage latency records (DESIGN.md: every stage records its latency; `kestrel bench` and
+// timing.json print percentiles). Thread-safe: stages on different threads record into one.
+#include <map>
+#include <mutex>
+#include <string>
+#include <vector>
+
+namespace kestrel::pipeline {
+
+struct LatencySummary {
+  std::size_t count = 0;
+  double mean_ms = 0, p50_ms = 0, p90_ms = 0, p99_ms = 0, max_ms = 0;
+};
+
+// Percentile by linear interpolation between order statistics (numpy's default).
+double percentile(std::vector<double> values, double p);
+LatencySummary summarize(const std::vector<double>& ms);
+
+class StageStats {
+ public:
+  void record(const std::string& stage, double ms);
+  void count(const std::string& counter, std::size_t n = 1);
+  void set_counter(const std::string& counter, std::size_t n);
+  std::map<std::string, LatencySummary> summaries() const;
+  std::map<std::string, std::size_t> counters() const;
+  std::vector<double> samples(const std::string& stage) const;
+  // {"stages": {name: {count, mean_ms, p50_ms, ...}}, "counters": {...}}
+  std::string to_json() const;
+
+ private:
+  mutable std::mutex mutex_;
+  std::map<std::string, std::vector<double>> samples_;
+  std::map<std::string, std::size_t> counters_;
+};
+
+}  // namespace kestrel::pipeline

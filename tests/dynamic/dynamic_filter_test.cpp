@@ -1,0 +1,212 @@
+#include "dynamic/dynamic_filter.hpp"
+
+#include <gtest/gtest.h>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <cstring>
+
+#include "tests/test_paths.hpp"
+
+namespace kestrel::dynamic {
+namespace {
+
+// A fronto-parallel textured rectangle at depth z, spanning [x0,x1]x[y0,y1] in world x/y.
+struct Plane {
+  cv::Mat texture;  // grey
+  double z, x0, x1, y0, y1;
+};
+
+constexpr double kF = 525.0, kCx = 319.5, kCy = 239.5;
+
+// Ray-casts the planes for a camera at `cam` (translation only, looking down +z).
+cv::Mat render(const std::vector<Plane>& planes, const cv::Vec3d& cam, cv::Mat* id = nullptr) {
+  cv::Mat im(480, 640, CV_8UC1, cv::Scalar(0));
+  if (id) *id = cv::Mat(480, 640, CV_8UC1, cv::Scalar(255));
+  for (int v = 0; v < 480; ++v) {
+    for (int u = 0; u < 640; ++u) {
+      const double rx = (u - kCx) / kF, ry = (v - kCy) / kF;
+      double best = 1e9;
+      for (std::size_t k = 0; k < planes.size(); ++k) {
+        const Plane& p = planes[k];
+        const double depth = p.z - cam[2];
+        const double X = cam[0] + rx * depth, Y = cam[1] + ry * depth;
+        if (depth <= 0 || depth >= best || X < p.x0 || X >= p.x1 || Y < p.y0 || Y >= p.y1) continue;
+        best = depth;
+        const int tu = static_cast<int>((X - p.x0) / (p.x1 - p.x0) * (p.texture.cols - 1));
+        const int tv = static_cast<int>((Y - p.y0) / (p.y1 - p.y0) * (p.texture.rows - 1));
+        im.at<uint8_t>(v, u) = p.texture.at<uint8_t>(tv, tu);
+        if (id) id->at<uint8_t>(v, u) = static_cast<uint8_t>(k);
+      }
+    }
+  }
+  return im;
+}
+
+Image to_image(const cv::Mat& m) {
+  Image im = Image::allocate(m.cols, m.rows, 1, PixelType::kU8);
+  for (int r = 0; r < m.rows; ++r) std::memcpy(im.row<uint8_t>(r), m.ptr(r), m.cols);
+  return im;
+}
+
+cv::Mat photo(const std::string& name) {
+  cv::Mat m = cv::imread(test::shared_data("images/" + name).string(), cv::IMREAD_GRAYSCALE);
+  EXPECT_FALSE(m.empty()) << name;
+  return m;
+}
+
+struct Scene {
+  cv::Mat prev, cur, ids;  // ids: plane index per pixel of cur (2 = mover)
+  std::vector<Vec2> points;
+};
+
+// Background wall at 5 m, a static box at 2 m, a mover at 3 m that moves `mover_step` between
+// the frames while the camera moves `cam_step`.
+Scene make_scene(const cv::Vec3d& cam_step, const cv::Vec3d& mover_step) {
+  const cv::Mat wall = photo("000004.jpg"), box = photo("horses.jpg"), mover = photo("person.jpg");
+  std::vector<Plane> planes = {{wall, 5.0, -6, 6, -4, 4},
+                               {box, 2.0, -1.2, -0.4, -0.2, 0.6},
+                               {mover, 3.0, 0.2, 1.0, -0.8, 0.6}};
+  Scene s;
+  s.prev = render(planes, cv::Vec3d(0, 0, 0));
+  planes[2].x0 += mover_step[0];
+  planes[2].x1 += mover_step[0];
+  planes[2].y0 += mover_step[1];
+  planes[2].y1 += mover_step[1];
+  s.cur = render(planes, cam_step, &s.ids);
+  std::vector<cv::Point2f> corners;
+  cv::goodFeaturesToTrack(s.cur, corners, 800, 0.005, 7);
+  for (const auto& c : corners) s.points.emplace_back(c.x, c.y);
+  return s;
+}
+
+struct Score {
+  double removed = 0, kept = 0;
+};
+
+Score score(const Scene& s, const DynamicFilterResult& r) {
+  int dyn = 0, dyn_removed = 0, stat = 0, stat_kept = 0;
+  for (std::size_t i = 0; i < s.points.size(); ++i) {
+    const int u = static_cast<int>(s.points[i].x()), v = static_cast<int>(s.points[i].y());
+    const bool truly_dynamic = s.ids.at<uint8_t>(v, u) == 2;
+    if (truly_dynamic) {
+      ++dyn;
+      dyn_removed += r.labels[i] == FeatureLabel::kDynamic;
+    } else {
+      ++stat;
+      stat_kept += r.labels[i] != FeatureLabel::kDynamic;
+    }
+  }
+  EXPECT_GT(dyn, 20);
+  EXPECT_GT(stat, 100);
+  return {100.0 * dyn_removed / std::max(dyn, 1), 100.0 * stat_kept / std::max(stat, 1)};
+}
+
+DynamicFilterInput input_for(const Scene& s, const Image& prev, const Image& cur) {
+  DynamicFilterInput in;
+  in.prev_gray = &prev;
+  in.cur_gray = &cur;
+  in.points = s.points;
+  in.K << kF, 0, kCx, 0, kF, kCy, 0, 0, 1;
+  return in;
+}
+
+// The mover's box in the current frame, from the id image.
+BoxRegion mover_box(const Scene& s) {
+  cv::Mat mask = s.ids == 2;
+  const cv::Rect r = cv::boundingRect(mask);
+  return BoxRegion{static_cast<float>(r.x), static_cast<float>(r.y),
+                   static_cast<float>(r.x + r.width), static_cast<float>(r.y + r.height)};
+}
+
+TEST(DynamicFilter, TranslatingCameraMoverAcrossEpipolarLines) {
+  // Camera slides right; epipolar lines are horizontal; the mover goes up.
+  const Scene s = make_scene({0.02, 0, 0}, {0, -0.05, 0});
+  const Image prev = to_image(s.prev), cur = to_image(s.cur);
+  DynamicFilterInput in = input_for(s, prev, cur);
+  in.boxes = {mover_box(s)};
+
+  DynamicFilterOptions hybrid;
+  const DynamicFilterResult r = classify_features(in, hybrid);
+  EXPECT_TRUE(r.geometry_valid);
+  EXPECT_FALSE(r.degenerate_motion);
+  ASSERT_EQ(r.box_moving.size(), 1u);
+  EXPECT_TRUE(r.box_moving[0]);
+  const Score h = score(s, r);
+  EXPECT_GE(h.removed, 95.0);
+  EXPECT_GE(h.kept, 95.0);
+
+  // Geometry alone (the detector missed it): a known weak case for two frames — a small
+  // baseline (2 cm) and a mover covering a fifth of the view let the five-point RANSAC absorb
+  // part of the mover. This is a regression floor; the scenario benchmarks carry the figures.
+  DynamicFilterOptions geo;
+  geo.mode = FilterMode::kGeometryOnly;
+  const DynamicFilterResult gr = classify_features(in, geo);
+  const Score g = score(s, gr);
+  EXPECT_GE(g.removed, 30.0);
+  EXPECT_GE(g.kept, 95.0);
+
+  // Off keeps everything.
+  DynamicFilterOptions off;
+  off.mode = FilterMode::kOff;
+  const Score o = score(s, classify_features(in, off));
+  EXPECT_EQ(o.removed, 0.0);
+  EXPECT_EQ(o.kept, 100.0);
+}
+
+TEST(DynamicFilter, StillCameraUsesFlowResidual) {
+  // A hovering camera: epipolar geometry is degenerate, the homography test takes over.
+  const Scene s = make_scene({0, 0, 0}, {0.03, 0.02, 0});
+  const Image prev = to_image(s.prev), cur = to_image(s.cur);
+  DynamicFilterInput in = input_for(s, prev, cur);
+  DynamicFilterOptions geo;
+  geo.mode = FilterMode::kGeometryOnly;
+  const DynamicFilterResult r = classify_features(in, geo);
+  EXPECT_TRUE(r.degenerate_motion);
+  const Score g = score(s, r);
+  EXPECT_GE(g.removed, 90.0);
+  EXPECT_GE(g.kept, 97.0);
+}
+
+TEST(DynamicFilter, DetectionOnlyRemovesEverythingInBoxes) {
+  const Scene s = make_scene({0.02, 0, 0}, {0, 0, 0});  // mover standing still
+  const Image prev = to_image(s.prev), cur = to_image(s.cur);
+  DynamicFilterInput in = input_for(s, prev, cur);
+  in.boxes = {mover_box(s)};
+  DynamicFilterOptions det;
+  det.mode = FilterMode::kDetectionOnly;
+  const DynamicFilterResult r = classify_features(in, det);
+  for (std::size_t i = 0; i < s.points.size(); ++i) {
+    if (in.boxes[0].contains(s.points[i].x(), s.points[i].y())) {
+      EXPECT_EQ(r.labels[i], FeatureLabel::kDynamic);
+    }
+  }
+  // Hybrid keeps a person who stands still: on its epipolar lines, box not moving.
+  const DynamicFilterResult h = classify_features(in, DynamicFilterOptions{});
+  EXPECT_FALSE(h.box_moving[0]);
+  std::size_t in_box = 0, kept = 0;
+  for (std::size_t i = 0; i < s.points.size(); ++i) {
+    if (in.boxes[0].contains(s.points[i].x(), s.points[i].y())) {
+      ++in_box;
+      kept += h.labels[i] == FeatureLabel::kStatic;
+    }
+  }
+  EXPECT_GE(kept, in_box * 9 / 10);
+}
+
+TEST(DynamicFilter, EmptyInputAndTooFewFeatures) {
+  Image a = Image::allocate(64, 48, 1, PixelType::kU8);
+  DynamicFilterInput in;
+  in.prev_gray = &a;
+  in.cur_gray = &a;
+  EXPECT_TRUE(classify_features(in, {}).labels.empty());
+  in.points = {Vec2(10, 10), Vec2(30, 30)};
+  in.boxes = {BoxRegion{0, 0, 20, 20}};
+  const DynamicFilterResult r = classify_features(in, {});
+  EXPECT_EQ(r.labels[0], FeatureLabel::kDynamic);  // in a box, no geometry to clear it
+  EXPECT_NE(r.labels[1], FeatureLabel::kDynamic);
+}
+
+}  // namespace
+}  // namespace kestrel::dynamic
