@@ -72,6 +72,11 @@ std::unique_ptr<MeasurementSource> open_kestrel_sequence(const std::string& dir)
 std::vector<SequenceBox> read_boxes(const std::string& path);
 std::vector<SequenceObject> read_objects(const std::string& path);
 void write_objects_json(const std::string& path, const std::vector<SequenceObject>& objects);
+// The same parsers on text already in memory (tests, fuzzing); `name` is used in errors.
+// boxes.csv labels are percent-encoded where they hold a separator ("dining%20table").
+class TextTable;
+std::vector<SequenceBox> parse_boxes(const TextTable& table);
+std::vector<SequenceObject> parse_objects_json(const std::string& text, const std::string& name);
 // dynamic/<stamp>.png for the frame at t; an empty Image if the sequence has no mask there.
 Image read_dynamic_mask(const std::string& dir, Timestamp t);
 
