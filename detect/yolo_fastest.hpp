@@ -1,0 +1,72 @@
+#pragma once
+// YOLO-Fastest 1.1 (Darknet cfg + weights) through OpenCV DNN on the CPU.
+// The OpenCV types stay in the .cpp (pimpl), so this header is cheap to include.
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "detect/detector.hpp"
+#include "detect/letterbox.hpp"
+
+namespace kestrel::detect {
+
+enum class YoloModel {
+  kV11,    // v1.1_coco/yolo-fastest-1.1      (80 COCO classes, 0.25 BFLOPs at 320)
+  kV11Xl,  // v1.1_coco/yolo-fastest-1.1-xl   (80 COCO classes, 0.72 BFLOPs at 320)
+  kBody,   // v1.1_body/yolo-fastest-1.1_body (person only)
+};
+
+// "v1.1", "xl", "body" (the CLI's --model values); nullopt for anything else.
+std::optional<YoloModel> parse_yolo_model(std::string_view text);
+std::string to_string(YoloModel model);
+
+struct YoloModelFiles {
+  std::string cfg, weights, names;
+};
+// The three files of `model` under `models_dir` (.../models/yolo-fastest). Throws
+// kestrel::Error naming the first file that does not exist.
+YoloModelFiles yolo_model_files(const std::string& models_dir, YoloModel model);
+
+// .../shared/models/yolo-fastest: $KESTREL_SHARED/models/yolo-fastest if KESTREL_SHARED is set,
+// else ../shared/models/yolo-fastest beside the source tree. Throws kestrel::Error naming the
+// directory when it does not exist.
+std::string find_models_dir();
+
+struct YoloFastestOptions {
+  YoloModel model = YoloModel::kV11;
+  int input_size = 320;  // network input, square; a multiple of 32 (320 or 416 in practice)
+  // Minimum class score (objectness x class probability). OpenCV's Region layer already zeroes
+  // scores below 0.2, so lower values act as 0.2.
+  float conf_threshold = 0.25f;
+  float nms_threshold = 0.45f;  // IoU above which the weaker box of a class is dropped (Darknet's)
+  // Stretch matches training; letterbox keeps the aspect ratio (see letterbox.hpp).
+  InputResize resize = InputResize::kStretch;
+  // cv::setNumThreads() at construction when > 0. It is process-wide in OpenCV: the default 1
+  // suits the pipeline, where detection runs on its own core; 0 leaves OpenCV's setting alone.
+  int num_threads = 1;
+};
+
+class YoloFastest final : public Detector {
+ public:
+  // Loads the model from `models_dir` (see yolo_model_files). Throws kestrel::Error naming the
+  // file when one is missing or cannot be parsed, and for bad options.
+  explicit YoloFastest(const std::string& models_dir, const YoloFastestOptions& options = {});
+  ~YoloFastest() override;
+  YoloFastest(const YoloFastest&) = delete;
+  YoloFastest& operator=(const YoloFastest&) = delete;
+
+  DetectionSet detect(const Image& image, Timestamp t) override;
+  std::string name() const override;
+
+  const YoloFastestOptions& options() const { return options_; }
+  const std::vector<std::string>& class_names() const;
+
+ private:
+  struct Impl;
+  YoloFastestOptions options_;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace kestrel::detect
