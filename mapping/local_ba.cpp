@@ -1,0 +1,287 @@
+#include "mapping/local_ba.hpp"
+
+#include <ceres/ceres.h>
+
+#include <cmath>
+#include <map>
+#include <set>
+
+namespace kestrel::mapping {
+
+bool reprojection_jacobians(const PinholeCamera& camera, const SE3& T_c_w, const Vec3& p_w,
+                            const Vec2& uv, Vec2* r, Mat26* J_pose, Mat23* J_point) {
+  const Vec3 p_c = T_c_w * p_w;
+  if (!(p_c.z() > 1e-6)) return false;
+  const double iz = 1.0 / p_c.z();
+  *r = Vec2(camera.fx * p_c.x() * iz + camera.cx - uv.x(),
+            camera.fy * p_c.y() * iz + camera.cy - uv.y());
+  const Mat23 Jp = camera.project_jacobian(p_c);
+  if (J_pose) {
+    J_pose->leftCols<3>() = Jp;
+    J_pose->rightCols<3>() = -Jp * SO3::hat(p_c);
+  }
+  if (J_point) *J_point = Jp * T_c_w.rotation();
+  return true;
+}
+
+bool disparity_jacobians(double bf, const SE3& T_c_w, const Vec3& p_w, double measured, double* r,
+                         Eigen::Matrix<double, 1, 6>* J_pose,
+                         Eigen::Matrix<double, 1, 3>* J_point) {
+  const Vec3 p_c = T_c_w * p_w;
+  if (!(p_c.z() > 1e-6)) return false;
+  *r = bf / p_c.z() - measured;
+  const Eigen::RowVector3d Jd(0.0, 0.0, -bf / (p_c.z() * p_c.z()));
+  if (J_pose) {
+    J_pose->leftCols<3>() = Jd;
+    J_pose->rightCols<3>() = -Jd * SO3::hat(p_c);
+  }
+  if (J_point) *J_point = Jd * T_c_w.rotation();
+  return true;
+}
+
+namespace {
+
+// Poses live in Ceres as xi = log(T_c_w). Plus applies a left perturbation; the cost returns
+// its Jacobian with respect to that perturbation and PlusJacobian is the identity, so Ceres'
+// product J * PlusJacobian is exactly the tangent-space Jacobian (the usual "lifted" SE(3)
+// trick that avoids differentiating log/exp).
+class Se3LeftManifold final : public ceres::Manifold {
+ public:
+  int AmbientSize() const override { return 6; }
+  int TangentSize() const override { return 6; }
+  bool Plus(const double* x, const double* delta, double* out) const override {
+    const Vec6 r =
+        (SE3::exp(Eigen::Map<const Vec6>(delta)) * SE3::exp(Eigen::Map<const Vec6>(x))).log();
+    Eigen::Map<Vec6>{out} = r;
+    return true;
+  }
+  bool PlusJacobian(const double*, double* J) const override {
+    Eigen::Map<Eigen::Matrix<double, 6, 6, Eigen::RowMajor>>(J).setIdentity();
+    return true;
+  }
+  bool Minus(const double* y, const double* x, double* out) const override {
+    Eigen::Map<Vec6>{out} =
+        (SE3::exp(Eigen::Map<const Vec6>(y)) * SE3::exp(Eigen::Map<const Vec6>(x)).inverse()).log();
+    return true;
+  }
+  bool MinusJacobian(const double*, double* J) const override {
+    Eigen::Map<Eigen::Matrix<double, 6, 6, Eigen::RowMajor>>(J).setIdentity();
+    return true;
+  }
+};
+
+class ReprojectionCost final : public ceres::SizedCostFunction<2, 6, 3> {
+ public:
+  ReprojectionCost(const PinholeCamera& camera, const Vec2& uv, double sqrt_info)
+      : camera_(camera), uv_(uv), sqrt_info_(sqrt_info) {}
+  bool Evaluate(double const* const* params, double* residuals, double** jacobians) const override {
+    const SE3 T = SE3::exp(Eigen::Map<const Vec6>(params[0]));
+    const Vec3 p_w = Eigen::Map<const Vec3>(params[1]);
+    Vec2 r;
+    Mat26 Jpose;
+    Mat23 Jpoint;
+    if (!reprojection_jacobians(camera_, T, p_w, uv_, &r, &Jpose, &Jpoint)) {
+      // Behind the camera: a large constant residual with zero slope keeps the solver away
+      // without NaN; the outlier pass then drops the observation.
+      residuals[0] = residuals[1] = 1e3;
+      if (jacobians) {
+        if (jacobians[0]) std::fill(jacobians[0], jacobians[0] + 12, 0.0);
+        if (jacobians[1]) std::fill(jacobians[1], jacobians[1] + 6, 0.0);
+      }
+      return true;
+    }
+    Eigen::Map<Vec2>{residuals} = sqrt_info_ * r;
+    if (jacobians) {
+      if (jacobians[0]) {
+        Eigen::Map<Eigen::Matrix<double, 2, 6, Eigen::RowMajor>>{jacobians[0]} = sqrt_info_ * Jpose;
+      }
+      if (jacobians[1]) {
+        Eigen::Map<Eigen::Matrix<double, 2, 3, Eigen::RowMajor>>{jacobians[1]} =
+            sqrt_info_ * Jpoint;
+      }
+    }
+    return true;
+  }
+
+ private:
+  PinholeCamera camera_;
+  Vec2 uv_;
+  double sqrt_info_;
+};
+
+class DisparityCost final : public ceres::SizedCostFunction<1, 6, 3> {
+ public:
+  DisparityCost(double bf, double measured, double sqrt_info)
+      : bf_(bf), measured_(measured), sqrt_info_(sqrt_info) {}
+  bool Evaluate(double const* const* params, double* residuals, double** jacobians) const override {
+    const SE3 T = SE3::exp(Eigen::Map<const Vec6>(params[0]));
+    const Vec3 p_w = Eigen::Map<const Vec3>(params[1]);
+    double r = 0.0;
+    Eigen::Matrix<double, 1, 6> Jpose;
+    Eigen::Matrix<double, 1, 3> Jpoint;
+    if (!disparity_jacobians(bf_, T, p_w, measured_, &r, &Jpose, &Jpoint)) {
+      residuals[0] = 1e3;
+      if (jacobians) {
+        if (jacobians[0]) std::fill(jacobians[0], jacobians[0] + 6, 0.0);
+        if (jacobians[1]) std::fill(jacobians[1], jacobians[1] + 3, 0.0);
+      }
+      return true;
+    }
+    residuals[0] = sqrt_info_ * r;
+    if (jacobians) {
+      if (jacobians[0]) Eigen::Map<Eigen::Matrix<double, 1, 6>>{jacobians[0]} = sqrt_info_ * Jpose;
+      if (jacobians[1]) Eigen::Map<Eigen::Matrix<double, 1, 3>>{jacobians[1]} = sqrt_info_ * Jpoint;
+    }
+    return true;
+  }
+
+ private:
+  double bf_, measured_, sqrt_info_;
+};
+
+struct Obs {
+  KeyframeId kf;
+  PointId point;
+  int feature;
+};
+
+}  // namespace
+
+LocalBaResult local_bundle_adjustment(Map& map, KeyframeId current, const PinholeCamera& camera,
+                                      const LocalBaOptions& options) {
+  LocalBaResult res;
+  if (!map.keyframe(current)) return res;
+  std::set<KeyframeId> local{current};
+  for (KeyframeId k : map.covisible(current, options.window)) local.insert(k);
+  std::set<PointId> points;
+  for (KeyframeId k : local) {
+    for (PointId p : map.keyframe(k)->point_of_feature) {
+      if (p != kNoPoint && map.point(p)) points.insert(p);
+    }
+  }
+  std::set<KeyframeId> fixed;
+  std::vector<Obs> obs;
+  for (PointId pid : points) {
+    for (const auto& [kid, feature] : map.point(pid)->observations) {
+      if (!local.count(kid)) fixed.insert(kid);
+      obs.push_back({kid, pid, feature});
+    }
+  }
+  // The first keyframe defines the world frame; without any anchor the gauge would be free.
+  if (local.count(0)) {
+    local.erase(0);
+    fixed.insert(0);
+  }
+  if (fixed.empty()) {
+    fixed.insert(*local.begin());
+    local.erase(local.begin());
+  }
+  if (local.empty() || obs.empty()) return res;
+
+  std::map<KeyframeId, Vec6> poses;
+  for (KeyframeId k : local) poses[k] = map.keyframe(k)->T_c_w().log();
+  for (KeyframeId k : fixed) poses[k] = map.keyframe(k)->T_c_w().log();
+  std::map<PointId, Vec3> pts;
+  for (PointId p : points) pts[p] = map.point(p)->p_w;
+
+  std::vector<std::uint8_t> active(obs.size(), 1);
+  auto rms = [&]() {
+    double s = 0.0;
+    int n = 0;
+    for (std::size_t i = 0; i < obs.size(); ++i) {
+      if (!active[i]) continue;
+      const auto& f = map.keyframe(obs[i].kf)->features;
+      Vec2 r;
+      if (reprojection_jacobians(camera, SE3::exp(poses[obs[i].kf]), pts[obs[i].point],
+                                 f.keypoints[static_cast<std::size_t>(obs[i].feature)].un, &r,
+                                 nullptr, nullptr)) {
+        s += r.squaredNorm();
+        ++n;
+      }
+    }
+    return n ? std::sqrt(s / n) : 0.0;
+  };
+  res.initial_rms_px = rms();
+
+  // Two stages as in ORB-SLAM: robust solve, drop outliers, solve again without them.
+  for (int stage = 0; stage < 2; ++stage) {
+    ceres::Problem::Options po;
+    po.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+    ceres::Problem problem(po);
+    Se3LeftManifold manifold;
+    for (std::size_t i = 0; i < obs.size(); ++i) {
+      if (!active[i]) continue;
+      const auto& f = map.keyframe(obs[i].kf)->features;
+      const auto& kp = f.keypoints[static_cast<std::size_t>(obs[i].feature)];
+      const double sqrt_info = 1.0 / f.level_scale(kp.level);
+      problem.AddResidualBlock(new ReprojectionCost(camera, kp.un, sqrt_info),
+                               new ceres::HuberLoss(std::sqrt(options.chi2_outlier)),
+                               poses[obs[i].kf].data(), pts[obs[i].point].data());
+      const auto fi = static_cast<std::size_t>(obs[i].feature);
+      if (options.virtual_bf > 0.0 && f.has_depth(fi)) {
+        problem.AddResidualBlock(
+            new DisparityCost(options.virtual_bf, options.virtual_bf / f.depth[fi], sqrt_info),
+            new ceres::HuberLoss(std::sqrt(options.chi2_outlier_depth)), poses[obs[i].kf].data(),
+            pts[obs[i].point].data());
+      }
+    }
+    for (auto& [k, xi] : poses) {
+      if (!problem.HasParameterBlock(xi.data())) continue;
+      problem.SetManifold(xi.data(), &manifold);
+      if (fixed.count(k)) problem.SetParameterBlockConstant(xi.data());
+    }
+    ceres::Solver::Options so;
+    so.linear_solver_type = ceres::SPARSE_SCHUR;
+    so.max_num_iterations = options.iterations;
+    so.num_threads = 1;
+    so.logging_type = ceres::SILENT;
+    ceres::Solver::Summary summary;
+    ceres::Solve(so, &problem, &summary);
+    for (std::size_t i = 0; i < obs.size(); ++i) {
+      if (!active[i]) continue;
+      const auto& f = map.keyframe(obs[i].kf)->features;
+      const auto& kp = f.keypoints[static_cast<std::size_t>(obs[i].feature)];
+      const SE3 T = SE3::exp(poses[obs[i].kf]);
+      Vec2 r;
+      const bool front =
+          reprojection_jacobians(camera, T, pts[obs[i].point], kp.un, &r, nullptr, nullptr);
+      double chi2 = r.squaredNorm();
+      double threshold = options.chi2_outlier;
+      const auto fi = static_cast<std::size_t>(obs[i].feature);
+      if (front && options.virtual_bf > 0.0 && f.has_depth(fi)) {
+        double rd = 0.0;
+        disparity_jacobians(options.virtual_bf, T, pts[obs[i].point],
+                            options.virtual_bf / f.depth[fi], &rd, nullptr, nullptr);
+        chi2 += rd * rd;
+        threshold = options.chi2_outlier_depth;
+      }
+      if (!front || chi2 / f.level_sigma2(kp.level) > threshold) active[i] = 0;
+    }
+  }
+  res.final_rms_px = rms();
+
+  for (KeyframeId k : local) {
+    const SE3 T_c_w = SE3::exp(poses[k]);
+    if (T_c_w.is_finite()) map.keyframe(k)->T_w_c = T_c_w.inverse();
+  }
+  for (auto& [p, x] : pts) {
+    if (x.allFinite()) map.point(p)->p_w = x;
+  }
+  for (std::size_t i = 0; i < obs.size(); ++i) {
+    if (!active[i] && map.point(obs[i].point)) {
+      map.erase_observation(obs[i].point, obs[i].kf);
+      ++res.outliers_removed;
+    }
+  }
+  for (PointId p : points) {
+    if (map.point(p)) map.update_point(p);
+  }
+  res.keyframes = static_cast<int>(local.size());
+  res.fixed = static_cast<int>(fixed.size());
+  res.points = static_cast<int>(points.size());
+  res.observations = static_cast<int>(obs.size());
+  res.ran = true;
+  return res;
+}
+
+}  // namespace kestrel::mapping

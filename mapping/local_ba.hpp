@@ -1,0 +1,48 @@
+#pragma once
+// Local bundle adjustment (Ceres): the newest keyframe, its covisible keyframes and the points
+// they see are optimized; other keyframes that see those points hold still and anchor the
+// solution. Reprojection error with a Huber kernel, analytic Jacobians. Called synchronously.
+#include <vector>
+
+#include "core/camera.hpp"
+#include "core/se3.hpp"
+#include "mapping/map.hpp"
+
+namespace kestrel::mapping {
+
+using Mat26 = Eigen::Matrix<double, 2, 6>;
+
+struct LocalBaOptions {
+  int window = 10;              // covisible keyframes optimized with the current one
+  int iterations = 10;          // Levenberg-Marquardt steps per stage
+  double chi2_outlier = 5.991;  // 2-dof observations above this (level-sigma units) are dropped
+  double chi2_outlier_depth = 7.815;  // the same with the depth term (3 dof)
+  // Depth enters as the disparity of a virtual stereo rig, bf / z in pixels (ORB-SLAM's RGB-D
+  // model; its TUM settings use bf = 40). It pins the scale that reprojection alone leaves free.
+  double virtual_bf = 40.0;
+};
+
+struct LocalBaResult {
+  int keyframes = 0;  // optimized
+  int fixed = 0;
+  int points = 0;
+  int observations = 0;
+  int outliers_removed = 0;
+  double initial_rms_px = 0.0;
+  double final_rms_px = 0.0;
+  bool ran = false;
+};
+
+// Residual project(T_c_w * p_w) - uv of the undistorted pinhole, and its Jacobians with respect
+// to the left perturbation of T_c_w (delta = [rho; phi]) and to p_w. False behind the camera.
+bool reprojection_jacobians(const PinholeCamera& camera, const SE3& T_c_w, const Vec3& p_w,
+                            const Vec2& uv, Vec2* r, Mat26* J_pose, Mat23* J_point);
+
+// Residual bf / z_c - measured disparity and its Jacobians (same conventions as above).
+bool disparity_jacobians(double bf, const SE3& T_c_w, const Vec3& p_w, double measured, double* r,
+                         Eigen::Matrix<double, 1, 6>* J_pose, Eigen::Matrix<double, 1, 3>* J_point);
+
+LocalBaResult local_bundle_adjustment(Map& map, KeyframeId current, const PinholeCamera& camera,
+                                      const LocalBaOptions& options = {});
+
+}  // namespace kestrel::mapping

@@ -1,0 +1,240 @@
+#include "mapping/map.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace kestrel::mapping {
+
+int MapPoint::predict_level(double distance, double scale_factor, int levels) const {
+  if (!(distance > 0.0) || !(max_distance > 0.0)) return 0;
+  const int level =
+      static_cast<int>(std::ceil(std::log(max_distance / distance) / std::log(scale_factor)));
+  return std::clamp(level, 0, levels - 1);
+}
+
+int Map::tracked_points(KeyframeId kid, int min_observations) const {
+  const Keyframe* kf = keyframe(kid);
+  if (!kf) return 0;
+  int n = 0;
+  for (PointId pid : kf->point_of_feature) {
+    const MapPoint* p = point(pid);
+    if (p && static_cast<int>(p->observations.size()) >= min_observations) ++n;
+  }
+  return n;
+}
+
+KeyframeId Map::add_keyframe(Timestamp t, const SE3& T_w_c, FrameFeatures features) {
+  const KeyframeId id = next_keyframe_++;
+  Keyframe& kf = keyframes_[id];
+  kf.id = id;
+  kf.t = t;
+  kf.T_w_c = T_w_c;
+  kf.point_of_feature.assign(features.size(), kNoPoint);
+  kf.features = std::move(features);
+  return id;
+}
+
+PointId Map::add_point(const Vec3& p_w, KeyframeId kf, int feature) {
+  const PointId id = next_point_++;
+  MapPoint& p = points_[id];
+  p.id = id;
+  p.p_w = p_w;
+  p.first_keyframe = kf;
+  recent_points_.push_back(id);
+  add_observation(id, kf, feature);
+  update_point(id);
+  return id;
+}
+
+void Map::add_observation(PointId pid, KeyframeId kid, int feature) {
+  MapPoint* p = point(pid);
+  Keyframe* kf = keyframe(kid);
+  if (!p || !kf || feature < 0 || feature >= static_cast<int>(kf->point_of_feature.size())) return;
+  // A feature sees one point and a point is seen once per keyframe: replace stale links.
+  const PointId old = kf->point_of_feature[static_cast<std::size_t>(feature)];
+  if (old != kNoPoint && old != pid) {
+    if (MapPoint* o = point(old)) o->observations.erase(kid);
+  }
+  if (auto it = p->observations.find(kid); it != p->observations.end() && it->second != feature) {
+    kf->point_of_feature[static_cast<std::size_t>(it->second)] = kNoPoint;
+  }
+  p->observations[kid] = feature;
+  kf->point_of_feature[static_cast<std::size_t>(feature)] = pid;
+}
+
+void Map::erase_observation(PointId pid, KeyframeId kid) {
+  MapPoint* p = point(pid);
+  if (!p) return;
+  auto it = p->observations.find(kid);
+  if (it == p->observations.end()) return;
+  if (Keyframe* kf = keyframe(kid))
+    kf->point_of_feature[static_cast<std::size_t>(it->second)] = kNoPoint;
+  p->observations.erase(it);
+  if (p->observations.empty()) {
+    erase_point(pid);
+  } else {
+    update_point(pid);
+  }
+}
+
+void Map::erase_point(PointId pid) {
+  auto it = points_.find(pid);
+  if (it == points_.end()) return;
+  for (const auto& [kid, feature] : it->second.observations) {
+    if (Keyframe* kf = keyframe(kid)) {
+      auto& slot = kf->point_of_feature[static_cast<std::size_t>(feature)];
+      if (slot == pid) slot = kNoPoint;
+    }
+  }
+  points_.erase(it);
+}
+
+void Map::update_point(PointId pid) {
+  MapPoint* p = point(pid);
+  if (!p || p->observations.empty()) return;
+  std::vector<const OrbDescriptor*> descs;
+  Vec3 normal = Vec3::Zero();
+  const Keyframe* ref = nullptr;
+  int ref_feature = 0;
+  for (const auto& [kid, feature] : p->observations) {
+    const Keyframe* kf = keyframe(kid);
+    if (!kf) continue;
+    descs.push_back(&kf->features.descriptors[static_cast<std::size_t>(feature)]);
+    const Vec3 ray = p->p_w - kf->T_w_c.translation();
+    if (ray.norm() > 0.0) normal += ray.normalized();
+    if (!ref) {
+      ref = kf;
+      ref_feature = feature;
+    }
+  }
+  if (!ref) return;
+  if (normal.norm() > 0.0) p->normal = normal.normalized();
+  // The representative descriptor has the least median distance to the others.
+  if (descs.size() <= 2) {
+    p->descriptor = *descs.front();
+  } else {
+    int best_median = std::numeric_limits<int>::max();
+    std::vector<int> d(descs.size());
+    for (std::size_t i = 0; i < descs.size(); ++i) {
+      for (std::size_t j = 0; j < descs.size(); ++j) d[j] = tracking::hamming(*descs[i], *descs[j]);
+      std::nth_element(d.begin(), d.begin() + static_cast<long>(d.size() / 2), d.end());
+      if (d[d.size() / 2] < best_median) {
+        best_median = d[d.size() / 2];
+        p->descriptor = *descs[i];
+      }
+    }
+  }
+  const FrameFeatures& f = ref->features;
+  const double dist = (p->p_w - ref->T_w_c.translation()).norm();
+  const int level = f.keypoints[static_cast<std::size_t>(ref_feature)].level;
+  p->max_distance = dist * f.level_scale(level);
+  p->min_distance = p->max_distance / f.level_scale(f.levels - 1);
+}
+
+int Map::create_points_from_depth(KeyframeId kid, int max_new, double max_depth) {
+  Keyframe* kf = keyframe(kid);
+  if (!kf) return 0;
+  const FrameFeatures& f = kf->features;
+  std::vector<std::pair<double, int>> candidates;
+  for (std::size_t i = 0; i < f.size(); ++i) {
+    if (kf->point_of_feature[i] != kNoPoint || !f.has_depth(i) || f.depth[i] > max_depth) continue;
+    if (f.status[i] == tracking::FeatureStatus::kDynamic) continue;
+    candidates.emplace_back(f.depth[i], static_cast<int>(i));
+  }
+  std::sort(candidates.begin(), candidates.end());
+  int created = 0;
+  for (const auto& [z, i] : candidates) {
+    if (created >= max_new) break;
+    add_point(kf->T_w_c * f.points_c[static_cast<std::size_t>(i)], kid, i);
+    ++created;
+  }
+  return created;
+}
+
+int Map::cull_points(KeyframeId current, const CullingOptions& options) {
+  int removed = 0;
+  std::vector<PointId> keep;
+  keep.reserve(recent_points_.size());
+  for (PointId pid : recent_points_) {
+    MapPoint* p = point(pid);
+    if (!p) continue;
+    const KeyframeId age = current - p->first_keyframe;
+    if (p->found_ratio() < options.min_found_ratio ||
+        (age >= 2 && static_cast<int>(p->observations.size()) < options.min_observations)) {
+      erase_point(pid);
+      ++removed;
+    } else if (age < 3) {
+      keep.push_back(pid);  // still on probation
+    }
+  }
+  recent_points_ = std::move(keep);
+  return removed;
+}
+
+void Map::update_connections(KeyframeId kid, int min_shared) {
+  Keyframe* kf = keyframe(kid);
+  if (!kf) return;
+  std::map<KeyframeId, int> counts;
+  for (PointId pid : kf->point_of_feature) {
+    const MapPoint* p = point(pid);
+    if (!p) continue;
+    for (const auto& [other, feature] : p->observations) {
+      (void)feature;
+      if (other != kid) ++counts[other];
+    }
+  }
+  for (auto& [other, w] : kf->connections) {
+    if (Keyframe* o = keyframe(other)) o->connections.erase(kid);
+    (void)w;
+  }
+  kf->connections.clear();
+  KeyframeId best = -1;
+  int best_count = 0;
+  for (const auto& [other, count] : counts) {
+    if (count > best_count) {
+      best_count = count;
+      best = other;
+    }
+    if (count >= min_shared) kf->connections[other] = count;
+  }
+  // Keep at least the strongest link so that no keyframe becomes an island.
+  if (kf->connections.empty() && best >= 0) kf->connections[best] = best_count;
+  for (const auto& [other, count] : kf->connections) {
+    if (Keyframe* o = keyframe(other)) o->connections[kid] = count;
+  }
+}
+
+std::vector<KeyframeId> Map::covisible(KeyframeId kid, int n) const {
+  const Keyframe* kf = keyframe(kid);
+  if (!kf) return {};
+  std::vector<std::pair<int, KeyframeId>> v;
+  for (const auto& [other, w] : kf->connections) v.emplace_back(w, other);
+  std::sort(v.begin(), v.end(), [](const auto& a, const auto& b) {
+    return a.first != b.first ? a.first > b.first : a.second > b.second;
+  });
+  std::vector<KeyframeId> out;
+  for (std::size_t i = 0; i < v.size() && static_cast<int>(i) < n; ++i) out.push_back(v[i].second);
+  return out;
+}
+
+Keyframe* Map::keyframe(KeyframeId id) {
+  auto it = keyframes_.find(id);
+  return it == keyframes_.end() ? nullptr : &it->second;
+}
+const Keyframe* Map::keyframe(KeyframeId id) const {
+  auto it = keyframes_.find(id);
+  return it == keyframes_.end() ? nullptr : &it->second;
+}
+MapPoint* Map::point(PointId id) {
+  if (id == kNoPoint) return nullptr;
+  auto it = points_.find(id);
+  return it == points_.end() ? nullptr : &it->second;
+}
+const MapPoint* Map::point(PointId id) const {
+  if (id == kNoPoint) return nullptr;
+  auto it = points_.find(id);
+  return it == points_.end() ? nullptr : &it->second;
+}
+
+}  // namespace kestrel::mapping

@@ -1,0 +1,99 @@
+#pragma once
+// The sparse map: map points and keyframes as plain data (ORB-SLAM's model without its
+// threads). Whoever owns a Map serializes access to it; pipeline/ decides who that is.
+#include <cstdint>
+#include <map>
+#include <unordered_map>
+#include <vector>
+
+#include "core/se3.hpp"
+#include "core/timestamp.hpp"
+#include "tracking/frame_features.hpp"
+
+namespace kestrel::mapping {
+
+using tracking::FrameFeatures;
+using tracking::OrbDescriptor;
+using PointId = std::int64_t;
+using KeyframeId = std::int64_t;
+inline constexpr PointId kNoPoint = -1;
+
+struct MapPoint {
+  PointId id = kNoPoint;
+  Vec3 p_w = Vec3::Zero();
+  OrbDescriptor descriptor;                // the most representative of its observations
+  Vec3 normal = Vec3::UnitZ();             // mean viewing direction (camera centre to point), unit
+  std::map<KeyframeId, int> observations;  // keyframe -> feature index in that keyframe
+  KeyframeId first_keyframe = -1;
+  // Culling statistics: how often the point was predicted in view vs. actually matched.
+  int visible = 1;
+  int found = 1;
+  // Distances over which ORB's scale pyramid can re-detect the point.
+  double min_distance = 0.0;
+  double max_distance = 0.0;
+
+  double found_ratio() const { return visible > 0 ? static_cast<double>(found) / visible : 0.0; }
+  // Pyramid level at which the point should appear from `distance` metres away.
+  int predict_level(double distance, double scale_factor, int levels) const;
+};
+
+struct Keyframe {
+  KeyframeId id = -1;
+  Timestamp t = 0;
+  SE3 T_w_c;
+  FrameFeatures features;
+  std::vector<PointId> point_of_feature;  // kNoPoint where a feature has no map point
+  std::map<KeyframeId, int> connections;  // covisibility: shared map points per keyframe
+
+  SE3 T_c_w() const { return T_w_c.inverse(); }
+};
+
+struct CullingOptions {
+  double min_found_ratio = 0.25;  // matched / predicted-in-view
+  int min_observations = 3;       // keyframes that must see a point two keyframes after its birth
+};
+
+class Map {
+ public:
+  KeyframeId add_keyframe(Timestamp t, const SE3& T_w_c, FrameFeatures features);
+  // A point seen by `feature` of keyframe `kf`.
+  PointId add_point(const Vec3& p_w, KeyframeId kf, int feature);
+  void add_observation(PointId p, KeyframeId kf, int feature);
+  void erase_observation(PointId p, KeyframeId kf);
+  void erase_point(PointId p);
+  // Recomputes descriptor, normal and scale-invariance distances from the observations.
+  void update_point(PointId p);
+
+  // Creates map points from the depth of a keyframe's features that have none yet, nearest
+  // first, at most max_new. Returns how many.
+  int create_points_from_depth(KeyframeId kf, int max_new, double max_depth);
+  // ORB-SLAM's recent-point culling; returns the number of points removed.
+  int cull_points(KeyframeId current, const CullingOptions& options = {});
+  // Recomputes the covisibility weights of `kf` (and the reverse edges).
+  void update_connections(KeyframeId kf, int min_shared = 15);
+  // Map points of kf seen by at least min_observations keyframes (ORB-SLAM's keyframe test).
+  int tracked_points(KeyframeId kf, int min_observations) const;
+  // Up to n keyframes sharing the most points with kf, best first.
+  std::vector<KeyframeId> covisible(KeyframeId kf, int n) const;
+
+  Keyframe* keyframe(KeyframeId id);
+  const Keyframe* keyframe(KeyframeId id) const;
+  MapPoint* point(PointId id);
+  const MapPoint* point(PointId id) const;
+  const std::map<KeyframeId, Keyframe>& keyframes() const { return keyframes_; }
+  const std::unordered_map<PointId, MapPoint>& points() const { return points_; }
+  std::size_t num_points() const { return points_.size(); }
+  std::size_t num_keyframes() const { return keyframes_.size(); }
+  KeyframeId last_keyframe_id() const {
+    return keyframes_.empty() ? -1 : keyframes_.rbegin()->first;
+  }
+
+ private:
+  std::map<KeyframeId, Keyframe> keyframes_;
+  std::unordered_map<PointId, MapPoint> points_;
+  std::vector<PointId> recent_points_;  // candidates for culling
+  KeyframeId next_keyframe_ = 0;
+  PointId next_point_ = 0;
+};
+
+}  // namespace kestrel::mapping

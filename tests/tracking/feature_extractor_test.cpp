@@ -1,0 +1,170 @@
+#include "tracking/feature_extractor.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <iostream>
+#include <set>
+
+#include "io/image_io.hpp"
+#include "tests/test_paths.hpp"
+
+namespace kestrel::tracking {
+namespace {
+
+PinholeCamera tum_camera() {
+  PinholeCamera c;
+  c.fx = 535.4;
+  c.fy = 539.2;
+  c.cx = 320.1;
+  c.cy = 247.6;
+  return c;
+}
+
+RgbdFrame tum_frame() {
+  RgbdFrame f;
+  f.color = io::load_image(test::shared_data("tum_fr3/frame/rgb_1341846313.592026.png").string(),
+                           io::ImageKind::kColor);
+  f.depth = io::load_image(test::shared_data("tum_fr3/frame/depth_1341846313.592088.png").string(),
+                           io::ImageKind::kDepth);
+  f.depth_scale = 5000.0;
+  return f;
+}
+
+TEST(FeatureExtractor, TargetCountAndSpreadOnRealFrame) {
+  const FeatureExtractor ex(tum_camera());
+  const FrameFeatures f = ex.extract(tum_frame());
+  EXPECT_GE(f.size(), 900u);
+  EXPECT_LE(f.size(), 1000u);
+  // Spread: features in at least 85% of an 8x6 grid of 80-pixel cells.
+  std::set<int> cells;
+  for (const auto& k : f.keypoints) {
+    cells.insert(static_cast<int>(k.px.y() / 80) * 8 + static_cast<int>(k.px.x() / 80));
+  }
+  std::cerr << "occupied cells: " << cells.size() << "\n";
+  EXPECT_GE(cells.size(), 41u);
+  EXPECT_EQ(f.descriptors.size(), f.size());
+  EXPECT_EQ(f.status.size(), f.size());
+  for (auto s : f.status) EXPECT_EQ(s, FeatureStatus::kStatic);
+}
+
+TEST(FeatureExtractor, DepthBackProjectionMatchesDepthImage) {
+  const PinholeCamera cam = tum_camera();
+  const FeatureExtractor ex(cam);
+  const RgbdFrame frame = tum_frame();
+  const FrameFeatures f = ex.extract(frame);
+  int with_depth = 0;
+  for (std::size_t i = 0; i < f.size(); ++i) {
+    if (!f.has_depth(i)) continue;
+    ++with_depth;
+    const auto& k = f.keypoints[i];
+    const int u = static_cast<int>(std::lround(k.px.x()));
+    const int v = static_cast<int>(std::lround(k.px.y()));
+    const double z = frame.depth.row<std::uint16_t>(v)[u] / 5000.0;
+    EXPECT_NEAR(f.points_c[i].z(), z, 1e-12);
+    const auto uv = cam.project(f.points_c[i]);
+    ASSERT_TRUE(uv.has_value());
+    EXPECT_NEAR((*uv - k.px).norm(), 0.0, 1e-9);
+    EXPECT_GE(f.depth[i], ex.options().min_depth);
+    EXPECT_LE(f.depth[i], ex.options().max_depth);
+  }
+  EXPECT_GT(with_depth, static_cast<int>(f.size()) / 2);
+}
+
+TEST(FeatureExtractor, MaxDepthRejectsFarPoints) {
+  FeatureExtractorOptions o;
+  o.max_depth = 1.5;
+  const FeatureExtractor ex(tum_camera(), o);
+  const FrameFeatures f = ex.extract(tum_frame());
+  int with_depth = 0;
+  for (std::size_t i = 0; i < f.size(); ++i) {
+    if (f.has_depth(i)) {
+      ++with_depth;
+      EXPECT_LE(f.points_c[i].z(), 1.5);
+    }
+  }
+  const FrameFeatures all = FeatureExtractor(tum_camera()).extract(tum_frame());
+  int all_depth = 0;
+  for (std::size_t i = 0; i < all.size(); ++i) all_depth += all.has_depth(i) ? 1 : 0;
+  EXPECT_LT(with_depth, all_depth);
+}
+
+TEST(FeatureExtractor, IgnoreMaskKeepsFeaturesOut) {
+  const FeatureExtractor ex(tum_camera());
+  const RgbdFrame frame = tum_frame();
+  Image ignore = Image::allocate(frame.color.width, frame.color.height, 1, PixelType::kU8);
+  for (int y = 0; y < ignore.height; ++y) {
+    for (int x = 0; x < ignore.width / 2; ++x) ignore.row<std::uint8_t>(y)[x] = 255;
+  }
+  const FrameFeatures f = ex.extract(frame, &ignore);
+  ASSERT_GT(f.size(), 300u);
+  for (const auto& k : f.keypoints) EXPECT_GE(k.px.x(), ignore.width / 2 - 1.0);
+}
+
+TEST(FeatureExtractor, RetainDropsByIndexAndKeepsArraysAligned) {
+  const FeatureExtractor ex(tum_camera());
+  FrameFeatures f = ex.extract(tum_frame());
+  const FrameFeatures orig = f;
+  std::vector<std::uint8_t> keep(f.size());
+  for (std::size_t i = 0; i < keep.size(); ++i) keep[i] = (i % 3 != 0);
+  f.retain(keep);
+  std::size_t j = 0;
+  for (std::size_t i = 0; i < orig.size(); ++i) {
+    if (!keep[i]) continue;
+    ASSERT_LT(j, f.size());
+    EXPECT_EQ(f.keypoints[j].px, orig.keypoints[i].px);
+    EXPECT_EQ(f.descriptors[j], orig.descriptors[i]);
+    EXPECT_EQ(f.depth[j], orig.depth[i]);
+    ++j;
+  }
+  EXPECT_EQ(j, f.size());
+  EXPECT_THROW(f.retain(std::vector<std::uint8_t>(3, 1)), std::invalid_argument);
+}
+
+TEST(FeatureExtractor, RadiusSearchEqualsBruteForce) {
+  const FrameFeatures f = FeatureExtractor(tum_camera()).extract(tum_frame());
+  for (const Vec2& c : {Vec2(100, 100), Vec2(320, 240), Vec2(630, 470), Vec2(-5, 10)}) {
+    for (double r : {3.0, 15.0, 40.0}) {
+      std::vector<int> got = f.in_radius(c.x(), c.y(), r, 1, 4);
+      std::sort(got.begin(), got.end());
+      std::vector<int> want;
+      for (std::size_t i = 0; i < f.size(); ++i) {
+        const auto& k = f.keypoints[i];
+        if ((k.un - c).norm() <= r && k.level >= 1 && k.level <= 4)
+          want.push_back(static_cast<int>(i));
+      }
+      EXPECT_EQ(got, want);
+    }
+  }
+}
+
+TEST(FeatureExtractor, UndistortsKeypointsWithTheCameraModel) {
+  PinholeCamera cam = tum_camera();
+  cam.model = DistortionModel::kRadTan;
+  cam.dist = {0.2624, -0.9531, -0.0054, 0.0026, 1.1633};  // TUM fr1's published coefficients
+  const FrameFeatures f = FeatureExtractor(cam).extract(tum_frame());
+  double max_shift = 0.0;
+  for (const auto& k : f.keypoints) {
+    const Vec2 xn((k.un.x() - cam.cx) / cam.fx, (k.un.y() - cam.cy) / cam.fy);
+    const Vec2 xd = cam.distort(xn);
+    EXPECT_NEAR(cam.fx * xd.x() + cam.cx, k.px.x(), 1e-6);
+    EXPECT_NEAR(cam.fy * xd.y() + cam.cy, k.px.y(), 1e-6);
+    max_shift = std::max(max_shift, (k.un - k.px).norm());
+  }
+  EXPECT_GT(max_shift, 1.0);  // the distortion is real, so undistortion must move points
+}
+
+TEST(FeatureExtractor, RejectsBadInputs) {
+  const FeatureExtractor ex(tum_camera());
+  const RgbdFrame frame = tum_frame();
+  const Image small = Image::allocate(10, 10, 1, PixelType::kU8);
+  EXPECT_THROW(ex.extract(frame.color, &small), std::invalid_argument);
+  EXPECT_THROW(ex.extract(frame.color, nullptr, &frame.color), std::invalid_argument);
+  EXPECT_THROW(ex.extract(frame.depth), std::invalid_argument);
+  FeatureExtractorOptions bad;
+  bad.scale_factor = 1.0f;
+  EXPECT_THROW(FeatureExtractor(tum_camera(), bad), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace kestrel::tracking

@@ -1,0 +1,151 @@
+#include "tracking/tracker.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <iostream>
+
+#include "io/image_io.hpp"
+#include "synthetic_scene.hpp"
+#include "tests/test_paths.hpp"
+
+namespace kestrel::tracking {
+namespace {
+
+PinholeCamera synthetic_camera() {
+  PinholeCamera c;
+  c.fx = c.fy = 525.0;
+  c.cx = 319.5;
+  c.cy = 239.5;
+  return c;
+}
+
+PinholeCamera tum_camera() {
+  PinholeCamera c;
+  c.fx = 535.4;
+  c.fy = 539.2;
+  c.cx = 320.1;
+  c.cy = 247.6;
+  return c;
+}
+
+RgbdFrame tum_frame() {
+  RgbdFrame f;
+  f.color = io::load_image(test::shared_data("tum_fr3/frame/rgb_1341846313.592026.png").string(),
+                           io::ImageKind::kColor);
+  f.depth = io::load_image(test::shared_data("tum_fr3/frame/depth_1341846313.592088.png").string(),
+                           io::ImageKind::kDepth);
+  return f;
+}
+
+TEST(Tracker, SyntheticSequenceWithinOneCentimetreAndNeverLost) {
+  const PinholeCamera cam = synthetic_camera();
+  const test::SyntheticScene scene = test::SyntheticScene::office();
+  const std::vector<SE3> path = test::smooth_path(60);
+  Tracker tracker(cam);
+  tracker.set_initial_pose(path[0]);
+  double sum2 = 0.0, worst = 0.0, worst_deg = 0.0;
+  int keyframes = 0;
+  for (std::size_t i = 0; i < path.size(); ++i) {
+    const RgbdFrame frame = scene.render(cam, path[i], static_cast<Timestamp>(i) * 33'333'333);
+    const TrackResult r = tracker.track(frame);
+    ASSERT_TRUE(r.state == TrackingState::kOk) << "frame " << i << " " << to_string(r.state);
+    ASSERT_TRUE(r.T_w_c.is_finite());
+    const double e = (r.T_w_c.translation() - path[i].translation()).norm();
+    sum2 += e * e;
+    worst = std::max(worst, e);
+    worst_deg = std::max(worst_deg, (r.T_w_c.so3().inverse() * path[i].so3()).angle() * 180 / M_PI);
+    keyframes += r.new_keyframe ? 1 : 0;
+    if (i > 0) {
+      EXPECT_GT(r.inliers, 100) << "frame " << i;
+    }
+  }
+  const double rmse = std::sqrt(sum2 / static_cast<double>(path.size()));
+  std::cerr << "synthetic: RMSE " << rmse * 1000 << " mm, worst " << worst * 1000 << " mm, "
+            << worst_deg << " deg, " << keyframes << " keyframes, " << tracker.map().num_points()
+            << " points\n";
+  EXPECT_LT(rmse, 0.01);
+  EXPECT_GT(keyframes, 1);
+}
+
+TEST(Tracker, RealFrameAgainstItselfIsIdentity) {
+  Tracker tracker(tum_camera());
+  const RgbdFrame frame = tum_frame();
+  const TrackResult first = tracker.track(frame);
+  ASSERT_EQ(first.state, TrackingState::kOk);
+  ASSERT_TRUE(first.new_keyframe);
+  const TrackResult second = tracker.track(frame);
+  ASSERT_EQ(second.state, TrackingState::kOk);
+  EXPECT_GT(second.inliers, 300);
+  EXPECT_LT(second.T_w_c.translation().norm(), 1e-6);
+  EXPECT_LT(second.T_w_c.so3().angle(), 1e-6);
+  EXPECT_FALSE(second.new_keyframe);
+}
+
+TEST(Tracker, RealFrameWithAWrongPredictionStillFindsIdentity) {
+  Tracker tracker(tum_camera());
+  const RgbdFrame frame = tum_frame();
+  tracker.track(frame);
+  // 20 cm and 6 degrees off: too far for the projection search, so PnP has to step in.
+  const SE3 wrong(SO3::exp(Vec3(0.0, 0.1, 0.0)), Vec3(0.2, 0.0, 0.0));
+  const TrackResult r = tracker.track(frame, wrong);
+  ASSERT_EQ(r.state, TrackingState::kOk);
+  EXPECT_LT(r.T_w_c.translation().norm(), 1e-4);
+  EXPECT_LT(r.T_w_c.so3().angle(), 1e-4);
+}
+
+TEST(Tracker, KeepMaskExcludesFeaturesAndAllDynamicIsLost) {
+  Tracker tracker(tum_camera());
+  const RgbdFrame frame = tum_frame();
+  tracker.track(frame);
+  FrameFeatures f = tracker.extractor().extract(frame);
+  const std::vector<std::uint8_t> none(f.size(), 0);
+  const TrackResult r = tracker.track(f, std::nullopt, &none);
+  EXPECT_EQ(r.state, TrackingState::kLost);
+  EXPECT_EQ(r.inliers, 0);
+  EXPECT_TRUE(r.T_w_c.is_finite());
+  EXPECT_LT(r.T_w_c.translation().norm(), 1e-12);  // the last good pose
+  const std::vector<std::uint8_t> wrong_size(3, 1);
+  EXPECT_THROW(tracker.track(f, std::nullopt, &wrong_size), std::invalid_argument);
+}
+
+TEST(Tracker, NonFinitePredictionIsIgnored) {
+  Tracker tracker(tum_camera());
+  const RgbdFrame frame = tum_frame();
+  tracker.track(frame);
+  SE3 bad;
+  bad.translation() = Vec3(std::nan(""), 0, 0);
+  const TrackResult r = tracker.track(frame, bad);
+  EXPECT_EQ(r.state, TrackingState::kOk);
+  EXPECT_TRUE(r.T_w_c.is_finite());
+  EXPECT_LT(r.T_w_c.translation().norm(), 1e-6);
+}
+
+TEST(Tracker, WaitsForDepthThenLosesOnBlankAndRelocalizes) {
+  const PinholeCamera cam = synthetic_camera();
+  const test::SyntheticScene scene = test::SyntheticScene::office();
+  const std::vector<SE3> path = test::smooth_path(60);
+  Tracker tracker(cam);
+  RgbdFrame blank;
+  blank.color = Image::allocate(cam.width, cam.height, 1, PixelType::kU8);
+  blank.depth = Image::allocate(cam.width, cam.height, 1, PixelType::kU16);
+  EXPECT_EQ(tracker.track(blank).state, TrackingState::kInitializing);
+  for (int i = 0; i < 20; ++i) {
+    ASSERT_EQ(tracker.track(scene.render(cam, path[static_cast<std::size_t>(i)])).state,
+              TrackingState::kOk);
+  }
+  const SE3 last = tracker.last_pose();
+  const TrackResult lost = tracker.track(blank);
+  EXPECT_EQ(lost.state, TrackingState::kLost);
+  EXPECT_LT((lost.T_w_c.translation() - last.translation()).norm(), 1e-12);
+  // Jump ahead on the path: no motion prior is valid, relocalization must find the pose.
+  const TrackResult back = tracker.track(scene.render(cam, path[30]));
+  ASSERT_EQ(back.state, TrackingState::kRelocalized);
+  EXPECT_LT((back.T_w_c.translation() - path[30].translation()).norm(), 0.01);
+  const TrackResult next = tracker.track(scene.render(cam, path[31]));
+  EXPECT_EQ(next.state, TrackingState::kOk);
+  EXPECT_LT((next.T_w_c.translation() - path[31].translation()).norm(), 0.01);
+}
+
+}  // namespace
+}  // namespace kestrel::tracking

@@ -1,0 +1,165 @@
+#include "tracking/feature_extractor.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <opencv2/features2d.hpp>
+#include <opencv2/imgproc.hpp>
+#include <stdexcept>
+#include <string>
+
+#include "io/cv_image.hpp"
+
+namespace kestrel::tracking {
+
+struct FeatureExtractor::Impl {
+  cv::Ptr<cv::ORB> orb;
+};
+
+FeatureExtractor::FeatureExtractor(const PinholeCamera& camera,
+                                   const FeatureExtractorOptions& options)
+    : camera_(camera), options_(options), impl_(std::make_unique<Impl>()) {
+  if (options.target_features <= 0 || options.levels <= 0 || options.scale_factor <= 1.0f ||
+      options.cell_px <= 0 || options.oversample < 1.0) {
+    throw std::invalid_argument(
+        "FeatureExtractorOptions: target_features, levels, cell_px must be > 0, scale_factor > 1 "
+        "and oversample >= 1");
+  }
+  const int candidates =
+      static_cast<int>(std::lround(options.target_features * options.oversample));
+  impl_->orb = cv::ORB::create(candidates, options.scale_factor, options.levels,
+                               /*edgeThreshold=*/19, /*firstLevel=*/0, /*WTA_K=*/2,
+                               cv::ORB::HARRIS_SCORE, /*patchSize=*/31, options.fast_threshold);
+}
+
+FeatureExtractor::~FeatureExtractor() = default;
+FeatureExtractor::FeatureExtractor(FeatureExtractor&&) noexcept = default;
+FeatureExtractor& FeatureExtractor::operator=(FeatureExtractor&&) noexcept = default;
+
+namespace {
+
+// Picks up to `target` keypoints: first the best `quota` of every cell (round-robin by rank),
+// then the best of the rest, so texture-rich cells cannot starve the others.
+std::vector<int> bucket(const std::vector<cv::KeyPoint>& kps, int width, int height, int cell_px,
+                        int target) {
+  const int cols = std::max(1, (width + cell_px - 1) / cell_px);
+  const int rows = std::max(1, (height + cell_px - 1) / cell_px);
+  std::vector<std::vector<int>> cells(static_cast<std::size_t>(cols) * rows);
+  for (std::size_t i = 0; i < kps.size(); ++i) {
+    const int cx = std::clamp(static_cast<int>(kps[i].pt.x) / cell_px, 0, cols - 1);
+    const int cy = std::clamp(static_cast<int>(kps[i].pt.y) / cell_px, 0, rows - 1);
+    cells[static_cast<std::size_t>(cy) * cols + cx].push_back(static_cast<int>(i));
+  }
+  for (auto& c : cells) {
+    std::sort(c.begin(), c.end(), [&](int a, int b) { return kps[a].response > kps[b].response; });
+  }
+  std::vector<int> chosen;
+  chosen.reserve(static_cast<std::size_t>(target));
+  for (std::size_t rank = 0; static_cast<int>(chosen.size()) < target; ++rank) {
+    // One round takes the rank-th best of every cell that has one, best responses first.
+    std::vector<int> round;
+    for (const auto& c : cells) {
+      if (rank < c.size()) round.push_back(c[rank]);
+    }
+    if (round.empty()) break;
+    std::sort(round.begin(), round.end(),
+              [&](int a, int b) { return kps[a].response > kps[b].response; });
+    for (int i : round) {
+      if (static_cast<int>(chosen.size()) >= target) break;
+      chosen.push_back(i);
+    }
+  }
+  return chosen;
+}
+
+void check_same_size(const Image& a, const Image& b, const char* what) {
+  if (a.width != b.width || a.height != b.height) {
+    throw std::invalid_argument(std::string("FeatureExtractor: ") + what + " is " +
+                                std::to_string(b.width) + "x" + std::to_string(b.height) +
+                                ", image is " + std::to_string(a.width) + "x" +
+                                std::to_string(a.height));
+  }
+}
+
+}  // namespace
+
+FrameFeatures FeatureExtractor::extract(const Image& image, const Image* ignore, const Image* depth,
+                                        double depth_scale, Timestamp t) const {
+  if (image.empty() || image.type != PixelType::kU8 ||
+      (image.channels != 1 && image.channels != 3)) {
+    throw std::invalid_argument("FeatureExtractor: image must be 8-bit grey or BGR");
+  }
+  cv::Mat grey = io::as_mat(image);
+  if (image.channels == 3) {
+    cv::Mat g;
+    cv::cvtColor(grey, g, cv::COLOR_BGR2GRAY);
+    grey = g;
+  }
+  cv::Mat mask;
+  if (ignore && !ignore->empty()) {
+    check_same_size(image, *ignore, "ignore mask");
+    if (ignore->type != PixelType::kU8 || ignore->channels != 1) {
+      throw std::invalid_argument("FeatureExtractor: ignore mask must be 8-bit, 1 channel");
+    }
+    // OpenCV's mask selects where to detect; ours says where not to.
+    mask = io::as_mat(*ignore) == 0;
+  }
+  if (depth && !depth->empty()) {
+    check_same_size(image, *depth, "depth");
+    if (depth->type != PixelType::kU16 || depth->channels != 1) {
+      throw std::invalid_argument("FeatureExtractor: depth must be 16-bit, 1 channel");
+    }
+    if (!(depth_scale > 0.0)) throw std::invalid_argument("FeatureExtractor: depth_scale <= 0");
+  }
+
+  std::vector<cv::KeyPoint> kps;
+  impl_->orb->detect(grey, kps, mask);
+  const std::vector<int> chosen =
+      bucket(kps, image.width, image.height, options_.cell_px, options_.target_features);
+  std::vector<cv::KeyPoint> selected;
+  selected.reserve(chosen.size());
+  for (int i : chosen) selected.push_back(kps[static_cast<std::size_t>(i)]);
+  cv::Mat desc;
+  // compute() keeps the detected angles and may drop keypoints too close to the border.
+  impl_->orb->compute(grey, selected, desc);
+
+  FrameFeatures f;
+  f.t = t;
+  f.width = image.width;
+  f.height = image.height;
+  f.scale_factor = options_.scale_factor;
+  f.levels = options_.levels;
+  const std::size_t n = selected.size();
+  f.keypoints.resize(n);
+  f.descriptors.resize(n);
+  f.depth.assign(n, 0.0);
+  f.points_c.assign(n, Vec3::Zero());
+  f.status.assign(n, FeatureStatus::kStatic);
+  const bool distorted = camera_.model != DistortionModel::kNone;
+  for (std::size_t i = 0; i < n; ++i) {
+    const cv::KeyPoint& k = selected[i];
+    Keypoint& out = f.keypoints[i];
+    out.px = Vec2(k.pt.x, k.pt.y);
+    out.angle = k.angle;
+    out.response = k.response;
+    out.level = k.octave;
+    const Vec3 ray = distorted ? camera_.unproject(out.px)
+                               : Vec3((out.px.x() - camera_.cx) / camera_.fx,
+                                      (out.px.y() - camera_.cy) / camera_.fy, 1.0);
+    out.un = Vec2(camera_.fx * ray.x() + camera_.cx, camera_.fy * ray.y() + camera_.cy);
+    f.descriptors[i] = OrbDescriptor::from_bytes(desc.ptr<std::uint8_t>(static_cast<int>(i)));
+    if (depth && !depth->empty()) {
+      const int u = std::clamp(static_cast<int>(std::lround(out.px.x())), 0, depth->width - 1);
+      const int v = std::clamp(static_cast<int>(std::lround(out.px.y())), 0, depth->height - 1);
+      const double z = depth->row<std::uint16_t>(v)[u] / depth_scale;
+      if (z >= options_.min_depth && z <= options_.max_depth) {
+        f.depth[i] = z;
+        f.points_c[i] = z * ray;
+      }
+    }
+  }
+  f.build_grid();
+  return f;
+}
+
+}  // namespace kestrel::tracking

@@ -1,0 +1,53 @@
+#pragma once
+// ORB features spread over the image by grid bucketing, with optional depth back-projection.
+// OpenCV stays in the .cpp (pimpl) so that this header is cheap to include.
+#include <memory>
+
+#include "core/camera.hpp"
+#include "core/frame.hpp"
+#include "tracking/frame_features.hpp"
+
+namespace kestrel::tracking {
+
+struct FeatureExtractorOptions {
+  int target_features = 1000;  // per frame, after bucketing
+  float scale_factor = 1.2f;
+  int levels = 8;
+  int fast_threshold = 8;
+  // ORB detects oversample x target candidates; bucketing keeps the best of each cell first so
+  // that weak but well-spread corners survive next to strongly textured regions.
+  double oversample = 3.0;
+  int cell_px = 48;
+  double min_depth = 0.1;  // metres; closer readings are sensor noise
+  double max_depth = 8.0;  // metres; farther readings are too noisy to seed map points
+};
+
+class FeatureExtractor {
+ public:
+  FeatureExtractor(const PinholeCamera& camera, const FeatureExtractorOptions& options = {});
+  ~FeatureExtractor();
+  FeatureExtractor(FeatureExtractor&&) noexcept;
+  FeatureExtractor& operator=(FeatureExtractor&&) noexcept;
+
+  // Features of `image` (8-bit grey or BGR). `ignore` (optional, 8-bit, image size): pixels
+  // != 0 get no features. `depth` (optional, 16-bit, registered to image): metres =
+  // value / depth_scale. Throws std::invalid_argument on mismatched sizes or pixel types.
+  FrameFeatures extract(const Image& image, const Image* ignore = nullptr,
+                        const Image* depth = nullptr, double depth_scale = 5000.0,
+                        Timestamp t = 0) const;
+  FrameFeatures extract(const RgbdFrame& frame, const Image* ignore = nullptr) const {
+    return extract(frame.color, ignore, frame.depth.empty() ? nullptr : &frame.depth,
+                   frame.depth_scale, frame.t);
+  }
+
+  const FeatureExtractorOptions& options() const { return options_; }
+  const PinholeCamera& camera() const { return camera_; }
+
+ private:
+  struct Impl;
+  PinholeCamera camera_;
+  FeatureExtractorOptions options_;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace kestrel::tracking

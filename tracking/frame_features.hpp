@@ -1,0 +1,66 @@
+#pragma once
+// The features of one frame: keypoints (raw and undistorted), ORB descriptors, depth-based 3D
+// points and per-feature status. Plain data with a spatial grid for radius search; no OpenCV.
+#include <cmath>
+#include <cstdint>
+#include <vector>
+
+#include "core/eigen_types.hpp"
+#include "core/timestamp.hpp"
+#include "tracking/orb_descriptor.hpp"
+
+namespace kestrel::tracking {
+
+// What the dynamic filter decided about a feature. Features start static: only evidence of
+// motion demotes them.
+enum class FeatureStatus : std::uint8_t { kStatic, kDynamic, kUnknown };
+
+struct Keypoint {
+  Vec2 px;             // as detected, in the (distorted) image
+  Vec2 un;             // undistorted, in pixels of the ideal pinhole with the same K
+  float angle = 0.0f;  // orientation in degrees, as cv::KeyPoint
+  float response = 0.0f;
+  int level = 0;  // pyramid level (octave)
+};
+
+struct FrameFeatures {
+  Timestamp t = 0;
+  int width = 0;
+  int height = 0;
+  float scale_factor = 1.2f;  // between pyramid levels
+  int levels = 8;
+
+  std::vector<Keypoint> keypoints;
+  std::vector<OrbDescriptor> descriptors;
+  // Depth in metres at the keypoint, 0 where there is none (hole, out of range, monocular).
+  std::vector<double> depth;
+  // Camera-frame point from depth (meaningful only where depth > 0).
+  std::vector<Vec3> points_c;
+  std::vector<FeatureStatus> status;
+
+  std::size_t size() const { return keypoints.size(); }
+  bool has_depth(std::size_t i) const { return depth[i] > 0.0; }
+
+  // Scale of a pyramid level relative to level 0, and its squared value (the variance of a
+  // keypoint position in level-0 pixels grows with it).
+  // Inline because mapping/ uses it without linking the tracking library.
+  double level_scale(int level) const { return std::pow(static_cast<double>(scale_factor), level); }
+  double level_sigma2(int level) const { return level_scale(level) * level_scale(level); }
+
+  // Keeps the features whose keep[i] != 0 (all per-feature arrays stay aligned) and rebuilds
+  // the grid. keep.size() must equal size().
+  void retain(const std::vector<std::uint8_t>& keep);
+
+  // Indices of features whose undistorted position lies within `radius` pixels of (u, v) and
+  // whose level is within [min_level, max_level] (-1: no bound). Needs build_grid().
+  std::vector<int> in_radius(double u, double v, double radius, int min_level = -1,
+                             int max_level = -1) const;
+  void build_grid();
+
+  static constexpr int kCellPx = 16;
+  int grid_cols = 0;
+  int grid_rows = 0;
+  std::vector<std::vector<int>> grid;
+};
+
+}  // namespace kestrel::tracking

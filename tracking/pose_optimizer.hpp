@@ -1,0 +1,47 @@
+#pragma once
+// Motion-only bundle adjustment: the camera pose that best reprojects known world points onto
+// their (undistorted) keypoints. Gauss-Newton on SE(3) with a Huber kernel, analytic Jacobian
+// and ORB-SLAM's four rounds of outlier classification. No OpenCV, no Ceres: it runs every
+// frame and must be cheap.
+#include <cstdint>
+#include <vector>
+
+#include "core/camera.hpp"
+#include "core/se3.hpp"
+
+namespace kestrel::tracking {
+
+using Mat26 = Eigen::Matrix<double, 2, 6>;
+
+struct PoseObservation {
+  Vec3 p_w;               // world point
+  Vec2 uv;                // undistorted pixel
+  double inv_sigma2 = 1;  // information of the pixel (1 / level_sigma2)
+};
+
+struct PoseOptimizerOptions {
+  int rounds = 4;
+  int iterations = 10;          // Gauss-Newton steps per round
+  double chi2_outlier = 5.991;  // chi-square 95% with 2 dof, in units of the pixel variance
+  int min_inliers = 10;
+};
+
+struct PoseOptimizerResult {
+  SE3 T_c_w;
+  std::vector<std::uint8_t> inlier;  // per observation
+  int inliers = 0;
+  bool ok = false;  // finite pose with at least min_inliers inliers
+};
+
+// Residual r = project(T_c_w * p_w) - uv of the undistorted pinhole (distortion ignored) and,
+// when J is given, dr/d(delta) for the left perturbation T_c_w <- exp(delta) * T_c_w,
+// delta = [rho; phi]. False when the point is behind the camera.
+bool pose_residual(const PinholeCamera& camera, const SE3& T_c_w, const Vec3& p_w, const Vec2& uv,
+                   Vec2* r, Mat26* J = nullptr);
+
+PoseOptimizerResult optimize_pose(const PinholeCamera& camera,
+                                  const std::vector<PoseObservation>& observations,
+                                  const SE3& T_c_w_initial,
+                                  const PoseOptimizerOptions& options = {});
+
+}  // namespace kestrel::tracking

@@ -1,0 +1,427 @@
+#include "tracking/tracker.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <limits>
+#include <stdexcept>
+#include <string>
+#include <unordered_map>
+
+namespace kestrel::tracking {
+
+using mapping::KeyframeId;
+using mapping::kNoPoint;
+using mapping::PointId;
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double ms_since(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+}  // namespace
+
+const char* to_string(TrackingState s) {
+  switch (s) {
+    case TrackingState::kInitializing:
+      return "initializing";
+    case TrackingState::kOk:
+      return "ok";
+    case TrackingState::kLost:
+      return "lost";
+    case TrackingState::kRelocalized:
+      return "relocalized";
+  }
+  return "unknown";
+}
+
+Tracker::Tracker(const PinholeCamera& camera, const TrackerOptions& options)
+    : camera_(camera), options_(options), extractor_(camera, options.features) {}
+
+void Tracker::reset() {
+  map_ = mapping::Map();
+  state_ = TrackingState::kInitializing;
+  last_T_w_c_ = SE3();
+  velocity_.reset();
+  reference_kf_ = last_kf_ = -1;
+  last_matches_.clear();
+  frames_since_keyframe_ = 0;
+}
+
+TrackResult Tracker::track(const RgbdFrame& frame, const std::optional<SE3>& predicted_T_w_c,
+                           const std::vector<std::uint8_t>* keep) {
+  const auto t0 = Clock::now();
+  FrameFeatures f = extractor_.extract(frame);
+  const double extract_ms = ms_since(t0);
+  TrackResult r = track(std::move(f), predicted_T_w_c, keep);
+  r.times.extract_ms = extract_ms;
+  r.times.total_ms += extract_ms;
+  return r;
+}
+
+TrackResult Tracker::track(FrameFeatures f, const std::optional<SE3>& predicted,
+                           const std::vector<std::uint8_t>* keep) {
+  const auto t0 = Clock::now();
+  if (keep) {
+    if (keep->size() != f.size()) {
+      throw std::invalid_argument("Tracker::track: keep mask has " + std::to_string(keep->size()) +
+                                  " entries for " + std::to_string(f.size()) + " features");
+    }
+    for (std::size_t i = 0; i < f.size(); ++i) {
+      if (!(*keep)[i]) f.status[i] = FeatureStatus::kDynamic;
+    }
+  }
+  if (predicted && !predicted->is_finite()) {
+    // A broken prediction (e.g. diverged IMU) is no prediction.
+    return track(std::move(f), std::nullopt, nullptr);
+  }
+  if (state_ == TrackingState::kInitializing) {
+    TrackResult r = initialize(std::move(f), predicted);
+    r.times.total_ms = ms_since(t0);
+    return r;
+  }
+
+  TrackResult res;
+  const auto tm = Clock::now();
+  Matched m;
+  PoseOptimizerResult pose;
+  pose.ok = false;
+  bool relocalizing = state_ == TrackingState::kLost;
+  std::vector<PointId> pts;
+  std::vector<PointId> visible;
+  double optimize_ms = 0.0;
+
+  if (!relocalizing) {
+    const SE3 prior_w_c =
+        predicted ? *predicted : (velocity_ ? last_T_w_c_ * *velocity_ : last_T_w_c_);
+    SE3 start = prior_w_c.inverse();
+    pts = local_points();
+    m = search_local_map(f, start, pts, options_.search_radius_px, nullptr);
+    if (m.count < options_.min_matches_prior) {
+      m = search_local_map(f, start, pts, 2.0 * options_.search_radius_px, nullptr);
+    }
+    bool tried_pnp = false;
+    auto pnp_fallback = [&]() {
+      // The prediction is unusable (fast motion, bad prior): descriptor matching + PnP.
+      tried_pnp = true;
+      int pnp_inliers = 0;
+      if (auto T = pnp_against(f, pts, &pnp_inliers)) {
+        start = *T;
+        m = search_local_map(f, start, pts, options_.search_radius_px, nullptr);
+      }
+    };
+    if (m.count < options_.min_matches_prior) pnp_fallback();
+    auto to = Clock::now();
+    pose = optimize(f, m, start);
+    optimize_ms += ms_since(to);
+    // Enough matches around a wrong prior can still be mostly wrong ones.
+    if ((!pose.ok || pose.inliers < options_.min_inliers) && !tried_pnp) {
+      pnp_fallback();
+      to = Clock::now();
+      pose = optimize(f, m, start);
+      optimize_ms += ms_since(to);
+    }
+  } else {
+    // Relocalization: every map point near the last good pose is a candidate.
+    const Vec3 centre = last_T_w_c_.translation();
+    std::vector<std::pair<double, PointId>> near;
+    for (const auto& [id, p] : map_.points()) near.emplace_back((p.p_w - centre).squaredNorm(), id);
+    const std::size_t cap = std::min<std::size_t>(near.size(), 6000);
+    std::partial_sort(near.begin(), near.begin() + static_cast<long>(cap), near.end());
+    for (std::size_t i = 0; i < cap; ++i) pts.push_back(near[i].second);
+    int pnp_inliers = 0;
+    if (auto T = pnp_against(f, pts, &pnp_inliers)) {
+      m = search_local_map(f, *T, pts, options_.refine_radius_px * 3.0, nullptr);
+      const auto to = Clock::now();
+      pose = optimize(f, m, *T);
+      optimize_ms += ms_since(to);
+    }
+  }
+  if (pose.ok) {
+    // Second pass: with the pose known to a pixel, a tight search finds many more points.
+    Matched m2 = search_local_map(f, pose.T_c_w, pts, options_.refine_radius_px, &visible);
+    const auto to = Clock::now();
+    PoseOptimizerResult pose2 = optimize(f, m2, pose.T_c_w);
+    optimize_ms += ms_since(to);
+    if (pose2.ok && pose2.inliers >= pose.inliers) {
+      pose = pose2;
+      m = std::move(m2);
+    }
+  }
+  res.times.optimize_ms = optimize_ms;
+  res.times.match_ms = ms_since(tm) - optimize_ms;
+
+  const int needed = relocalizing ? options_.min_inliers_relocalize : options_.min_inliers;
+  const bool ok = pose.ok && pose.inliers >= needed && pose.T_c_w.is_finite();
+  res.matches = m.count;
+  res.inliers = ok ? pose.inliers : 0;
+  if (!ok) {
+    state_ = TrackingState::kLost;
+    velocity_.reset();
+    res.state = state_;
+    res.T_w_c = last_T_w_c_;
+    res.times.total_ms = ms_since(t0);
+    return res;
+  }
+
+  const SE3 T_w_c = pose.T_c_w.inverse();
+  for (PointId p : visible) {
+    if (auto* mp = map_.point(p)) ++mp->visible;
+  }
+  for (PointId p : m.point) {
+    if (auto* mp = map_.point(p)) ++mp->found;
+  }
+  update_reference(m);
+  state_ = relocalizing ? TrackingState::kRelocalized : TrackingState::kOk;
+  velocity_ =
+      relocalizing ? std::optional<SE3>() : std::optional<SE3>(last_T_w_c_.inverse() * T_w_c);
+  last_T_w_c_ = T_w_c;
+  ++frames_since_keyframe_;
+
+  const auto tk = Clock::now();
+  if (need_keyframe(f, m, pose.inliers) || relocalizing) {
+    res.keyframe_id = insert_keyframe(std::move(f), m, T_w_c);
+    res.new_keyframe = true;
+    // Local BA may have refined this keyframe's pose: report and continue from the refined one.
+    const SE3 refined = map_.keyframe(res.keyframe_id)->T_w_c;
+    if (velocity_) velocity_ = *velocity_ * T_w_c.inverse() * refined;
+    last_T_w_c_ = refined;
+  }
+  res.times.keyframe_ms = ms_since(tk);
+  res.T_w_c = last_T_w_c_;
+  res.state = state_;
+  res.times.total_ms = ms_since(t0);
+  return res;
+}
+
+TrackResult Tracker::initialize(FrameFeatures&& f, const std::optional<SE3>& predicted) {
+  TrackResult res;
+  const SE3 T_w_c = predicted ? *predicted : initial_T_w_c_;
+  res.T_w_c = T_w_c;
+  int with_depth = 0;
+  for (std::size_t i = 0; i < f.size(); ++i) {
+    with_depth += f.has_depth(i) && f.status[i] == FeatureStatus::kStatic ? 1 : 0;
+  }
+  if (with_depth < options_.min_init_points) {
+    res.state = TrackingState::kInitializing;
+    return res;
+  }
+  const KeyframeId kid = map_.add_keyframe(f.t, T_w_c, std::move(f));
+  map_.create_points_from_depth(kid, std::numeric_limits<int>::max(), options_.features.max_depth);
+  reference_kf_ = last_kf_ = kid;
+  frames_since_keyframe_ = 0;
+  last_matches_.clear();
+  for (PointId p : map_.keyframe(kid)->point_of_feature) {
+    if (p != kNoPoint) last_matches_.push_back(p);
+  }
+  state_ = TrackingState::kOk;
+  last_T_w_c_ = T_w_c;
+  velocity_.reset();
+  res.state = state_;
+  res.new_keyframe = true;
+  res.keyframe_id = kid;
+  res.inliers = res.matches = static_cast<int>(last_matches_.size());
+  return res;
+}
+
+std::vector<PointId> Tracker::local_points() const {
+  // Keyframes that see what the last frame saw, most shared first, plus the reference
+  // keyframe's neighbourhood.
+  std::unordered_map<KeyframeId, int> counts;
+  for (PointId p : last_matches_) {
+    if (const auto* mp = map_.point(p)) {
+      for (const auto& [kf, feature] : mp->observations) {
+        (void)feature;
+        ++counts[kf];
+      }
+    }
+  }
+  std::vector<std::pair<int, KeyframeId>> ranked;
+  for (const auto& [kf, c] : counts) ranked.emplace_back(c, kf);
+  std::sort(ranked.rbegin(), ranked.rend());
+  std::vector<KeyframeId> kfs;
+  for (std::size_t i = 0; i < ranked.size() && static_cast<int>(i) < options_.local_keyframes;
+       ++i) {
+    kfs.push_back(ranked[i].second);
+  }
+  kfs.push_back(reference_kf_);
+  kfs.push_back(last_kf_);
+  for (KeyframeId k : map_.covisible(reference_kf_, options_.local_keyframes / 2)) kfs.push_back(k);
+  std::sort(kfs.begin(), kfs.end());
+  kfs.erase(std::unique(kfs.begin(), kfs.end()), kfs.end());
+  std::vector<PointId> pts;
+  for (KeyframeId k : kfs) {
+    if (const auto* kf = map_.keyframe(k)) {
+      for (PointId p : kf->point_of_feature) {
+        if (p != kNoPoint) pts.push_back(p);
+      }
+    }
+  }
+  std::sort(pts.begin(), pts.end());
+  pts.erase(std::unique(pts.begin(), pts.end()), pts.end());
+  return pts;
+}
+
+Tracker::Matched Tracker::search_local_map(const FrameFeatures& f, const SE3& T_c_w,
+                                           const std::vector<PointId>& pts, double radius,
+                                           std::vector<PointId>* visible) const {
+  std::vector<ProjectedPoint> proj;
+  std::vector<PointId> ids;
+  proj.reserve(pts.size());
+  ids.reserve(pts.size());
+  const Vec3 centre = T_c_w.inverse().translation();
+  for (PointId pid : pts) {
+    const auto* p = map_.point(pid);
+    if (!p) continue;
+    const Vec3 p_c = T_c_w * p->p_w;
+    if (p_c.z() < 0.05) continue;
+    const Vec2 uv(camera_.fx * p_c.x() / p_c.z() + camera_.cx,
+                  camera_.fy * p_c.y() / p_c.z() + camera_.cy);
+    if (uv.x() < 0 || uv.y() < 0 || uv.x() >= f.width || uv.y() >= f.height) continue;
+    const Vec3 ray = p->p_w - centre;
+    const double dist = ray.norm();
+    if (dist < 0.8 * p->min_distance || dist > 1.2 * p->max_distance) continue;
+    if (ray.dot(p->normal) < 0.5 * dist) continue;  // seen more than 60 degrees off its normal
+    proj.push_back({uv, p->predict_level(dist, f.scale_factor, f.levels), p->descriptor});
+    ids.push_back(pid);
+  }
+  if (visible) *visible = ids;
+  const std::vector<int> match = match_by_projection(f, proj, radius, options_.matching);
+  Matched m;
+  m.point.assign(f.size(), kNoPoint);
+  for (std::size_t k = 0; k < match.size(); ++k) {
+    if (match[k] < 0) continue;
+    m.point[static_cast<std::size_t>(match[k])] = ids[k];
+    ++m.count;
+  }
+  return m;
+}
+
+std::optional<SE3> Tracker::pnp_against(const FrameFeatures& f, const std::vector<PointId>& pts,
+                                        int* inliers) const {
+  std::vector<OrbDescriptor> train;
+  std::vector<const mapping::MapPoint*> train_points;
+  for (PointId pid : pts) {
+    if (const auto* p = map_.point(pid)) {
+      train.push_back(p->descriptor);
+      train_points.push_back(p);
+    }
+  }
+  std::vector<OrbDescriptor> query;
+  std::vector<int> query_feature;
+  for (std::size_t i = 0; i < f.size(); ++i) {
+    if (f.status[i] != FeatureStatus::kStatic) continue;
+    query.push_back(f.descriptors[i]);
+    query_feature.push_back(static_cast<int>(i));
+  }
+  MatchOptions strict = options_.matching;
+  strict.max_distance = std::min(strict.max_distance, 64);
+  const std::vector<int> match = match_brute_force(query, train, strict);
+  std::vector<Vec3> points_w;
+  std::vector<Vec2> uv;
+  for (std::size_t q = 0; q < match.size(); ++q) {
+    if (match[q] < 0) continue;
+    points_w.push_back(train_points[static_cast<std::size_t>(match[q])]->p_w);
+    uv.push_back(f.keypoints[static_cast<std::size_t>(query_feature[q])].un);
+  }
+  const auto r = solve_pnp_ransac(camera_, points_w, uv, options_.pnp);
+  if (!r) return std::nullopt;
+  *inliers = r->inliers;
+  return r->T_c_w;
+}
+
+PoseOptimizerResult Tracker::optimize(const FrameFeatures& f, Matched& m, const SE3& T_c_w) const {
+  std::vector<PoseObservation> obs;
+  std::vector<std::size_t> feature_of;
+  for (std::size_t i = 0; i < f.size(); ++i) {
+    const auto* p = map_.point(m.point[i]);
+    if (!p) continue;
+    obs.push_back({p->p_w, f.keypoints[i].un, 1.0 / f.level_sigma2(f.keypoints[i].level)});
+    feature_of.push_back(i);
+  }
+  PoseOptimizerResult r = optimize_pose(camera_, obs, T_c_w, options_.pose);
+  m.count = 0;
+  for (std::size_t k = 0; k < obs.size(); ++k) {
+    if (!r.inlier[k]) {
+      m.point[feature_of[k]] = kNoPoint;
+    } else {
+      ++m.count;
+    }
+  }
+  return r;
+}
+
+bool Tracker::need_keyframe(const FrameFeatures& f, const Matched& m, int inliers) const {
+  if (frames_since_keyframe_ < options_.min_frames_between_keyframes) return false;
+  const int n_kfs = static_cast<int>(map_.num_keyframes());
+  // ORB-SLAM counts an RGB-D observation twice, so its "3 observations" is 2 keyframes here.
+  const int min_obs = n_kfs <= 2 ? 1 : 2;
+  const int ref_matches = map_.tracked_points(reference_kf_, min_obs);
+  int tracked_close = 0, untracked_close = 0;
+  for (std::size_t i = 0; i < f.size(); ++i) {
+    if (!f.has_depth(i) || f.depth[i] > options_.close_depth ||
+        f.status[i] != FeatureStatus::kStatic) {
+      continue;
+    }
+    (m.point[i] != kNoPoint ? tracked_close : untracked_close) += 1;
+  }
+  const bool need_close = tracked_close < 100 && untracked_close > 70;
+  const double ratio = n_kfs < 2 ? 0.4 : options_.keyframe_ratio;
+  const bool c1 = frames_since_keyframe_ >= options_.max_frames_between_keyframes ||
+                  frames_since_keyframe_ >= options_.min_frames_between_keyframes ||
+                  inliers < 0.25 * ref_matches || need_close;
+  const bool c2 = (inliers < ratio * ref_matches || need_close) && inliers > 15;
+  return c1 && c2;
+}
+
+KeyframeId Tracker::insert_keyframe(FrameFeatures&& f, const Matched& m, const SE3& T_w_c) {
+  const KeyframeId kid = map_.add_keyframe(f.t, T_w_c, std::move(f));
+  for (std::size_t i = 0; i < m.point.size(); ++i) {
+    if (m.point[i] != kNoPoint && map_.point(m.point[i])) {
+      map_.add_observation(m.point[i], kid, static_cast<int>(i));
+      map_.update_point(m.point[i]);
+    }
+  }
+  int created =
+      map_.create_points_from_depth(kid, std::numeric_limits<int>::max(), options_.close_depth);
+  if (created < options_.min_new_points) {
+    created += map_.create_points_from_depth(kid, options_.min_new_points - created,
+                                             options_.features.max_depth);
+  }
+  map_.update_connections(kid);
+  if (options_.inline_mapping) {
+    map_.cull_points(kid, options_.culling);
+    if (options_.local_ba) mapping::local_bundle_adjustment(map_, kid, camera_, options_.ba);
+  }
+  reference_kf_ = last_kf_ = kid;
+  frames_since_keyframe_ = 0;
+  last_matches_.clear();
+  for (PointId p : map_.keyframe(kid)->point_of_feature) {
+    if (p != kNoPoint) last_matches_.push_back(p);
+  }
+  return kid;
+}
+
+void Tracker::update_reference(const Matched& m) {
+  std::unordered_map<KeyframeId, int> counts;
+  last_matches_.clear();
+  for (PointId p : m.point) {
+    const auto* mp = map_.point(p);
+    if (!mp) continue;
+    last_matches_.push_back(p);
+    for (const auto& [kf, feature] : mp->observations) {
+      (void)feature;
+      ++counts[kf];
+    }
+  }
+  int best = 0;
+  for (const auto& [kf, c] : counts) {
+    if (c > best) {
+      best = c;
+      reference_kf_ = kf;
+    }
+  }
+}
+
+}  // namespace kestrel::tracking

@@ -1,0 +1,121 @@
+#pragma once
+// Frame-to-map RGB-D tracking, ORB-SLAM3-style: constant-velocity (or given) prediction,
+// matching of local map points by projection, PnP-RANSAC when the prediction is unusable,
+// motion-only optimization, keyframe decision, relocalization when lost. One thread: pipeline/
+// calls track() frame by frame. With inline_mapping (the default for now) a new keyframe's
+// points, culling and local BA run inside track().
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+#include "core/camera.hpp"
+#include "core/frame.hpp"
+#include "core/se3.hpp"
+#include "mapping/local_ba.hpp"
+#include "mapping/map.hpp"
+#include "tracking/feature_extractor.hpp"
+#include "tracking/matcher.hpp"
+#include "tracking/pnp.hpp"
+#include "tracking/pose_optimizer.hpp"
+
+namespace kestrel::tracking {
+
+enum class TrackingState { kInitializing, kOk, kLost, kRelocalized };
+const char* to_string(TrackingState s);
+
+struct TrackerOptions {
+  FeatureExtractorOptions features;
+  MatchOptions matching;
+  PoseOptimizerOptions pose;
+  PnpOptions pnp;
+  int min_init_points = 100;       // features with depth needed to start the map
+  int local_keyframes = 12;        // keyframes whose points form the local map
+  double search_radius_px = 10.0;  // first projection search, scaled by the level's scale
+  double refine_radius_px = 3.0;   // second search, around the optimized pose
+  int min_matches_prior = 25;      // fewer after the wide search: fall back to PnP
+  int min_inliers = 20;            // fewer: the frame is lost
+  int min_inliers_relocalize = 30;
+  // Keyframe decision (ORB-SLAM, RGB-D variant).
+  double keyframe_ratio = 0.75;  // tracked / reference keyframe's tracked points
+  int max_frames_between_keyframes = 30;
+  int min_frames_between_keyframes = 0;
+  double close_depth = 3.0;  // metres: "close" points are reliable for new map points
+  int min_new_points = 100;  // per keyframe, nearest first, even beyond close_depth
+  // Inline mapping until pipeline/ runs it on its own thread.
+  bool inline_mapping = true;
+  bool local_ba = true;
+  mapping::LocalBaOptions ba;
+  mapping::CullingOptions culling;
+};
+
+struct StageTimes {
+  double extract_ms = 0.0;
+  double match_ms = 0.0;
+  double optimize_ms = 0.0;
+  double keyframe_ms = 0.0;  // keyframe insertion and inline mapping (BA included)
+  double total_ms = 0.0;
+};
+
+struct TrackResult {
+  SE3 T_w_c;  // never NaN: the last good pose when the frame is lost
+  TrackingState state = TrackingState::kInitializing;
+  int inliers = 0;
+  int matches = 0;
+  bool new_keyframe = false;
+  mapping::KeyframeId keyframe_id = -1;  // the new keyframe, when there is one
+  StageTimes times;
+};
+
+class Tracker {
+ public:
+  explicit Tracker(const PinholeCamera& camera, const TrackerOptions& options = {});
+
+  // Pose of the first frame (identity unless set before it).
+  void set_initial_pose(const SE3& T_w_c) { initial_T_w_c_ = T_w_c; }
+
+  // Extracts, then tracks. keep (optional): per extracted feature, 0 = dynamic, ignored.
+  TrackResult track(const RgbdFrame& frame, const std::optional<SE3>& predicted_T_w_c = {},
+                    const std::vector<std::uint8_t>* keep = nullptr);
+  // Tracks features extracted by extractor() (so that a dynamic filter can see them first).
+  TrackResult track(FrameFeatures features, const std::optional<SE3>& predicted_T_w_c = {},
+                    const std::vector<std::uint8_t>* keep = nullptr);
+
+  const FeatureExtractor& extractor() const { return extractor_; }
+  const mapping::Map& map() const { return map_; }
+  mapping::Map& map() { return map_; }
+  TrackingState state() const { return state_; }
+  const SE3& last_pose() const { return last_T_w_c_; }
+  void reset();
+
+ private:
+  struct Matched {
+    std::vector<mapping::PointId> point;  // per feature, kNoPoint where unmatched
+    int count = 0;
+  };
+  std::vector<mapping::PointId> local_points() const;
+  Matched search_local_map(const FrameFeatures& f, const SE3& T_c_w,
+                           const std::vector<mapping::PointId>& pts, double radius,
+                           std::vector<mapping::PointId>* visible) const;
+  std::optional<SE3> pnp_against(const FrameFeatures& f, const std::vector<mapping::PointId>& pts,
+                                 int* inliers) const;
+  PoseOptimizerResult optimize(const FrameFeatures& f, Matched& m, const SE3& T_c_w) const;
+  bool need_keyframe(const FrameFeatures& f, const Matched& m, int inliers) const;
+  mapping::KeyframeId insert_keyframe(FrameFeatures&& f, const Matched& m, const SE3& T_w_c);
+  void update_reference(const Matched& m);
+  TrackResult initialize(FrameFeatures&& f, const std::optional<SE3>& predicted);
+
+  PinholeCamera camera_;
+  TrackerOptions options_;
+  FeatureExtractor extractor_;
+  mapping::Map map_;
+  TrackingState state_ = TrackingState::kInitializing;
+  SE3 initial_T_w_c_;
+  SE3 last_T_w_c_;
+  std::optional<SE3> velocity_;  // T_prev_cur of the last two good frames
+  mapping::KeyframeId reference_kf_ = -1;
+  mapping::KeyframeId last_kf_ = -1;
+  std::vector<mapping::PointId> last_matches_;  // points matched in the last good frame
+  int frames_since_keyframe_ = 0;
+};
+
+}  // namespace kestrel::tracking
