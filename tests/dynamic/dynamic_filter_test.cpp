@@ -210,3 +210,26 @@ TEST(DynamicFilter, EmptyInputAndTooFewFeatures) {
 
 }  // namespace
 }  // namespace kestrel::dynamic
+
+#include "dynamic/removal_metrics.hpp"
+
+namespace kestrel::dynamic {
+namespace {
+
+TEST(RemovalMetrics, CountsAgainstMoverMask) {
+  Image mask = Image::allocate(10, 10, 1, PixelType::kU16);
+  mask.row<std::uint16_t>(2)[3] = 7;  // a mover pixel at (3, 2)
+  const std::vector<Vec2> pts = {Vec2(3, 2), Vec2(5, 5), Vec2(6, 6), Vec2(50, 50)};
+  const std::vector<FeatureLabel> labels = {FeatureLabel::kDynamic, FeatureLabel::kDynamic,
+                                            FeatureLabel::kUnknown, FeatureLabel::kStatic};
+  const RemovalCounts c = count_removal(pts, labels, mask);
+  EXPECT_EQ(c.dynamic_total, 1u);
+  EXPECT_EQ(c.dynamic_removed, 1u);
+  EXPECT_EQ(c.static_total, 2u);  // the out-of-image point is not counted
+  EXPECT_EQ(c.static_kept, 1u);
+  EXPECT_DOUBLE_EQ(c.removed_percent(), 100.0);
+  EXPECT_DOUBLE_EQ(c.kept_percent(), 50.0);
+}
+
+}  // namespace
+}  // namespace kestrel::dynamic

@@ -1,0 +1,37 @@
+#pragma once
+// Dynamic-feature removal measured against ground truth (the definition): a feature is
+// truly dynamic when its pixel lies in the simulator's mover mask. "Removed" means labelled
+// dynamic; "kept" means not labelled dynamic (unknown features stay usable).
+#include <cstddef>
+#include <vector>
+
+#include "core/eigen_types.hpp"
+#include "core/image.hpp"
+#include "dynamic/dynamic_filter.hpp"
+
+namespace kestrel::dynamic {
+
+struct RemovalCounts {
+  std::size_t dynamic_total = 0;
+  std::size_t dynamic_removed = 0;
+  std::size_t static_total = 0;
+  std::size_t static_kept = 0;
+
+  double removed_percent() const {
+    return dynamic_total ? 100.0 * dynamic_removed / dynamic_total : 100.0;
+  }
+  double kept_percent() const { return static_total ? 100.0 * static_kept / static_total : 100.0; }
+  RemovalCounts& operator+=(const RemovalCounts& o) {
+    dynamic_total += o.dynamic_total;
+    dynamic_removed += o.dynamic_removed;
+    static_total += o.static_total;
+    static_kept += o.static_kept;
+    return *this;
+  }
+};
+
+// mask: 16-bit mover ids (0 = static) of the same frame; points in pixels.
+RemovalCounts count_removal(const std::vector<Vec2>& points,
+                            const std::vector<FeatureLabel>& labels, const Image& mask);
+
+}  // namespace kestrel::dynamic

@@ -1,0 +1,43 @@
+#pragma once
+// One run of the system over a dataset, as `kestrel run`, `kestrel demo` and `kestrel bench`
+// do it: feed the stream, write the outputs, score against ground truth where there is one.
+#include <functional>
+#include <string>
+
+#include "dynamic/dynamic_filter.hpp"
+#include "dynamic/removal_metrics.hpp"
+#include "io/measurement_source.hpp"
+
+namespace kestrel::pipeline {
+
+struct RunOptions {
+  std::string dataset_dir;        // for the Kestrel sequence's truth files (boxes, masks)
+  std::string detector = "yolo";  // yolo | oracle | none
+  dynamic::FilterMode dynamic = dynamic::FilterMode::kHybrid;
+  bool sequential = true;
+  std::string out_dir;     // trajectory.txt, timing.json, summary.json
+  std::string models_dir;  // "" = find ../shared/models
+  bool progress = true;
+};
+
+struct RunSummary {
+  std::size_t frames = 0;
+  std::size_t tracked = 0;
+  std::size_t lost = 0;
+  double ape_rmse_m = -1.0;  // -1 without ground truth
+  std::size_t ape_pairs = 0;
+  dynamic::RemovalCounts removal;
+  bool has_truth_masks = false;
+  double tracking_ms_median = 0.0;  // per frame: features + dynamic filter + tracking
+  double detector_ms_median = 0.0;
+  double wall_seconds = 0.0;
+  std::string timing_json;
+};
+
+// Throws kestrel::Error for unknown detectors or unreadable inputs.
+RunSummary run_sequence(io::MeasurementSource& source, const RunOptions& options);
+
+// summary.json text (the figures `kestrel demo` prints, for tests and the report).
+std::string summary_json(const RunSummary& s);
+
+}  // namespace kestrel::pipeline

@@ -1,0 +1,250 @@
+#include "pipeline/system.hpp"
+
+#include <opencv2/imgproc.hpp>
+
+#include <atomic>
+#include <chrono>
+#include <mutex>
+#include <thread>
+
+#include "detect/dynamic_classes.hpp"
+#include "io/cv_image.hpp"
+#include "pipeline/bounded_queue.hpp"
+#include "pipeline/detection_buffer.hpp"
+#include "pipeline/imu_buffer.hpp"
+
+namespace kestrel::pipeline {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double ms_since(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+struct QueuedFrame {
+  RgbdFrame frame;
+  Clock::time_point arrival;
+};
+
+Image to_gray(const Image& color) {
+  if (color.channels == 1) return color;
+  cv::Mat gray;
+  cv::cvtColor(io::as_mat(color), gray, cv::COLOR_BGR2GRAY);
+  return io::to_image(gray);
+}
+
+// Camera rotation between two frame stamps from the gyro (body frame), expressed in the camera
+// frame: R_cur_prev maps directions of the previous camera into the current one.
+std::optional<Mat3> gyro_rotation(const ImuBuffer& imu, Timestamp t0, Timestamp t1,
+                                  const SE3& T_body_camera) {
+  const std::vector<ImuSample> s = imu.between(t0, t1);
+  if (s.size() < 2) return std::nullopt;
+  SO3 R_prev_cur_body;
+  for (std::size_t i = 1; i < s.size(); ++i) {
+    const double dt = static_cast<double>(s[i].t - s[i - 1].t) * 1e-9;
+    R_prev_cur_body = R_prev_cur_body * SO3::exp(0.5 * (s[i].gyro + s[i - 1].gyro) * dt);
+  }
+  const Mat3 R_bc = T_body_camera.rotation();
+  const Mat3 R_prev_cur_cam = R_bc.transpose() * R_prev_cur_body.matrix() * R_bc;
+  return R_prev_cur_cam.transpose();
+}
+
+}  // namespace
+
+struct System::Impl {
+  Calibration calib;
+  SystemOptions options;
+  std::unique_ptr<detect::Detector> detector;
+  detect::DynamicClassList dynamic_classes;
+  tracking::Tracker tracker;
+
+  BoundedQueue<QueuedFrame> frames;
+  BoundedQueue<RgbdFrame> detection_frames;
+  DetectionBuffer detections;
+  std::mutex imu_mutex;
+  ImuBuffer imu;
+  StageStats stats;
+  TruthMaskProvider truth;
+
+  std::vector<Observer*> observers;
+  mutable std::mutex result_mutex;
+  Trajectory trajectory;
+  dynamic::RemovalCounts removal;
+  std::size_t lost = 0;
+
+  std::thread tracking_thread;
+  std::thread detection_thread;
+  std::atomic<bool> finished{false};
+
+  // Tracking-thread state.
+  Image prev_gray;
+  Timestamp prev_t = 0;
+
+  Impl(const Calibration& c, SystemOptions o, std::unique_ptr<detect::Detector> d)
+      : calib(c),
+        options(std::move(o)),
+        detector(std::move(d)),
+        dynamic_classes(options.dynamic_classes.empty()
+                            ? detect::DynamicClassList()
+                            : detect::DynamicClassList(options.dynamic_classes)),
+        tracker(c.camera, options.tracker),
+        frames(options.frame_queue, FullPolicy::kBlock),
+        detection_frames(options.detection_queue,
+                         options.sequential ? FullPolicy::kBlock : FullPolicy::kDropOldest),
+        detections(options.detection_tolerance_ns) {}
+
+  void detection_loop() {
+    while (auto f = detection_frames.pop()) {
+      const auto t0 = Clock::now();
+      detect::DetectionSet set = detector->detect(f->color, f->t);
+      stats.record("detection", ms_since(t0));
+      std::erase_if(set.boxes, [&](const detect::Detection& d) {
+        return !dynamic_classes.is_dynamic_class(d.label);
+      });
+      detections.put(std::move(set));
+    }
+  }
+
+  void tracking_loop() {
+    while (auto q = frames.pop()) process(*q);
+  }
+
+  void process(QueuedFrame& q) {
+    const RgbdFrame& frame = q.frame;
+    FrameReport report;
+    report.t = frame.t;
+
+    // Boxes for this frame.
+    std::vector<dynamic::BoxRegion> boxes;
+    if (detector) {
+      const auto t0 = Clock::now();
+      const auto set = options.sequential
+                           ? detections.wait_and_match(frame.t, std::chrono::seconds(30))
+                           : detections.wait_and_match(frame.t, std::chrono::milliseconds(30));
+      stats.record("detection_wait", ms_since(t0));
+      if (set) {
+        for (const auto& d : set->boxes) boxes.push_back({d.x_min, d.y_min, d.x_max, d.y_max});
+      }
+      detections.tracked_up_to(frame.t);
+    }
+    report.detections = static_cast<int>(boxes.size());
+
+    auto t0 = Clock::now();
+    tracking::FrameFeatures features = tracker.extractor().extract(frame);
+    stats.record("features", ms_since(t0));
+    report.features = static_cast<int>(features.size());
+
+    // Dynamic filter against the previous frame.
+    t0 = Clock::now();
+    const Image gray = to_gray(frame.color);
+    std::vector<std::uint8_t> keep(features.size(), 1);
+    if (!prev_gray.empty() && options.dynamic.mode != dynamic::FilterMode::kOff) {
+      dynamic::DynamicFilterInput in;
+      in.prev_gray = &prev_gray;
+      in.cur_gray = &gray;
+      in.points.reserve(features.size());
+      for (const auto& kp : features.keypoints) in.points.push_back(kp.px);
+      in.boxes = boxes;
+      in.K = calib.camera.K();
+      {
+        std::lock_guard<std::mutex> lock(imu_mutex);
+        if (calib.has_imu) in.R_cur_prev = gyro_rotation(imu, prev_t, frame.t, calib.T_body_camera);
+        imu.drop_before(frame.t - 1'000'000'000);
+      }
+      const dynamic::DynamicFilterResult r = dynamic::classify_features(in, options.dynamic);
+      for (std::size_t i = 0; i < keep.size(); ++i) {
+        keep[i] = r.labels[i] != dynamic::FeatureLabel::kDynamic;
+      }
+      report.dynamic_features = static_cast<int>(r.count(dynamic::FeatureLabel::kDynamic));
+      if (truth) report.removal = dynamic::count_removal(in.points, r.labels, truth(frame.t));
+    } else if (truth) {
+      std::vector<Vec2> pts;
+      for (const auto& kp : features.keypoints) pts.push_back(kp.px);
+      report.removal = dynamic::count_removal(
+          pts, std::vector<dynamic::FeatureLabel>(pts.size(), dynamic::FeatureLabel::kStatic),
+          truth(frame.t));
+    }
+    stats.record("dynamic_filter", ms_since(t0));
+    prev_gray = gray;
+    prev_t = frame.t;
+
+    t0 = Clock::now();
+    const tracking::TrackResult tr = tracker.track(std::move(features), {}, &keep);
+    stats.record("tracking", ms_since(t0));
+    stats.record("tracking.match", tr.times.match_ms);
+    stats.record("tracking.optimize", tr.times.optimize_ms);
+    if (tr.new_keyframe) stats.record("mapping.keyframe", tr.times.keyframe_ms);
+
+    report.state = tr.state;
+    report.inliers = tr.inliers;
+    report.keyframe = tr.new_keyframe;
+    report.T_w_body = tr.T_w_c * calib.T_body_camera.inverse();
+    report.latency_ms = ms_since(q.arrival);
+    stats.record("frame_latency", report.latency_ms);
+    {
+      std::lock_guard<std::mutex> lock(result_mutex);
+      if (tr.state == tracking::TrackingState::kLost) ++lost;
+      if (tr.state != tracking::TrackingState::kLost) {
+        trajectory.push_back(to_seconds(frame.t), report.T_w_body);
+      }
+      removal += report.removal;
+    }
+    for (Observer* o : observers) o->on_frame(report);
+  }
+};
+
+System::System(const Calibration& calib, SystemOptions options,
+               std::unique_ptr<detect::Detector> detector)
+    : impl_(std::make_unique<Impl>(calib, std::move(options), std::move(detector))) {
+  impl_->tracking_thread = std::thread([this] { impl_->tracking_loop(); });
+  if (impl_->detector) impl_->detection_thread = std::thread([this] { impl_->detection_loop(); });
+}
+
+System::~System() { finish(); }
+
+void System::add_observer(Observer* observer) { impl_->observers.push_back(observer); }
+void System::set_truth_masks(TruthMaskProvider provider) { impl_->truth = std::move(provider); }
+
+void System::feed(const Measurement& m) {
+  if (const auto* imu = std::get_if<ImuSample>(&m)) {
+    std::lock_guard<std::mutex> lock(impl_->imu_mutex);
+    impl_->imu.add(*imu);
+    return;
+  }
+  if (const auto* f = std::get_if<RgbdFrame>(&m)) {
+    if (impl_->detector) impl_->detection_frames.push(*f);
+    impl_->frames.push(QueuedFrame{*f, Clock::now()});
+  }
+  // Stereo frames need the stereo front end (a later step); they are ignored here.
+}
+
+void System::finish() {
+  if (impl_->finished.exchange(true)) return;
+  impl_->detection_frames.close();
+  impl_->frames.close();
+  if (impl_->tracking_thread.joinable()) impl_->tracking_thread.join();
+  if (impl_->detection_thread.joinable()) impl_->detection_thread.join();
+  impl_->stats.set_counter("detection.dropped", impl_->detection_frames.dropped());
+  impl_->stats.set_counter("detection.matched", impl_->detections.matched());
+  impl_->stats.set_counter("detection.missed", impl_->detections.missed());
+  impl_->stats.set_counter("detection.late", impl_->detections.late());
+  impl_->stats.set_counter("imu.rejected", impl_->imu.rejected());
+  impl_->stats.set_counter("frames.lost", frames_lost());
+}
+
+Trajectory System::trajectory() const {
+  std::lock_guard<std::mutex> lock(impl_->result_mutex);
+  return impl_->trajectory;
+}
+dynamic::RemovalCounts System::removal() const {
+  std::lock_guard<std::mutex> lock(impl_->result_mutex);
+  return impl_->removal;
+}
+const StageStats& System::stats() const { return impl_->stats; }
+std::size_t System::frames_lost() const {
+  std::lock_guard<std::mutex> lock(impl_->result_mutex);
+  return impl_->lost;
+}
+
+}  // namespace kestrel::pipeline

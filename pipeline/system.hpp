@@ -1,0 +1,85 @@
+#pragma once
+// The running SLAM system (DESIGN.md "Data flow of one frame"). Fed time-ordered measurements;
+// owns the threads:
+//   detection thread: frame -> Detector -> DetectionBuffer (newest wins when it falls behind)
+//   tracking thread : IMU since last frame -> rotation prediction; features -> dynamic filter
+//                     (boxes matched by stamp, flow, epipolar, homography/IMU) -> static
+//                     features -> tracker (pose, keyframes, map) -> observers
+// Local mapping currently runs inside the tracker (TrackerOptions::inline_mapping); the loop
+// closing thread arrives with the loop/ module. `sequential` runs every stage in lock-step so
+// tests are reproducible: the tracker waits for the detection of its own frame.
+#include <functional>
+#include <memory>
+#include <vector>
+
+#include "core/calibration.hpp"
+#include "core/frame.hpp"
+#include "core/trajectory.hpp"
+#include "detect/detector.hpp"
+#include "dynamic/dynamic_filter.hpp"
+#include "dynamic/removal_metrics.hpp"
+#include "pipeline/stage_stats.hpp"
+#include "tracking/tracker.hpp"
+
+namespace kestrel::pipeline {
+
+struct SystemOptions {
+  bool sequential = false;
+  dynamic::DynamicFilterOptions dynamic;
+  tracking::TrackerOptions tracker;
+  Timestamp detection_tolerance_ns = 50'000'000;  // boxes match a frame within 50 ms
+  std::size_t frame_queue = 8;
+  std::size_t detection_queue = 2;
+  std::vector<std::string> dynamic_classes;  // empty: detect/dynamic_classes defaults
+};
+
+// What observers get for every frame (DSO's Output3DWrapper seam: writers, telemetry, report).
+struct FrameReport {
+  Timestamp t = 0;
+  SE3 T_w_body;
+  tracking::TrackingState state = tracking::TrackingState::kInitializing;
+  int features = 0;
+  int dynamic_features = 0;
+  int inliers = 0;
+  int detections = 0;  // dynamic-class boxes matched to this frame
+  bool keyframe = false;
+  double latency_ms = 0.0;         // frame arrival to pose
+  dynamic::RemovalCounts removal;  // against the truth mask, when one is provided
+};
+
+class Observer {
+ public:
+  virtual ~Observer() = default;
+  virtual void on_frame(const FrameReport& report) = 0;
+};
+
+// Ground-truth mover mask of the frame at t (16-bit ids), or an empty Image.
+using TruthMaskProvider = std::function<Image(Timestamp)>;
+
+class System {
+ public:
+  // detector may be null (no detection: --detector none).
+  System(const Calibration& calib, SystemOptions options,
+         std::unique_ptr<detect::Detector> detector);
+  ~System();
+  System(const System&) = delete;
+  System& operator=(const System&) = delete;
+
+  void add_observer(Observer* observer);
+  void set_truth_masks(TruthMaskProvider provider);
+  // Frames are queued (back-pressure when tracking falls behind); IMU samples are buffered.
+  void feed(const Measurement& m);
+  // Drains the queues and joins the threads. Called by the destructor too.
+  void finish();
+
+  Trajectory trajectory() const;  // T_w_body of every tracked frame
+  dynamic::RemovalCounts removal() const;
+  const StageStats& stats() const;
+  std::size_t frames_lost() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace kestrel::pipeline
