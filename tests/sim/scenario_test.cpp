@@ -1,0 +1,70 @@
+// Scenario files: every built-in parses, overrides apply, and bad input names file, line, field.
+#include <gtest/gtest.h>
+
+#include <string>
+
+#include "core/error.hpp"
+#include "sim/builtin_scenarios.hpp"
+#include "sim/scenario.hpp"
+
+namespace kestrel::sim {
+namespace {
+
+TEST(Scenario, EveryBuiltInParses) {
+  const auto names = builtin_scenario_names();
+  for (const char* expected : {"office-static", "cafe", "market", "uav-zigzag", "ugv-loop", "corridor-dark"}) {
+    EXPECT_NE(std::find(names.begin(), names.end(), expected), names.end()) << expected;
+  }
+  for (const auto& name : names) {
+    const Scenario s = load_scenario(name);
+    EXPECT_EQ(s.name, name);
+    EXPECT_FALSE(s.trajectory.knots.empty());
+    EXPECT_EQ(s.calib.camera.width, 640);
+    EXPECT_EQ(s.calib.camera.height, 480);
+    EXPECT_DOUBLE_EQ(s.calib.fps, 30.0);
+    EXPECT_DOUBLE_EQ(s.calib.imu.rate_hz, 200.0);
+  }
+}
+
+TEST(Scenario, OverridesReachTheParametersAndTheWrittenYaml) {
+  ScenarioOverrides ov;
+  ov.seed = 77;
+  ov.duration = 1.5;
+  ov.no_movers = true;
+  const Scenario s = load_scenario("cafe", ov);
+  EXPECT_EQ(s.seed, 77u);
+  EXPECT_DOUBLE_EQ(s.duration, 1.5);
+  EXPECT_TRUE(s.movers.empty());
+  EXPECT_NE(s.yaml.find("seed: 77"), std::string::npos);
+  // The written parameters parse back to the same scenario.
+  const Scenario again = parse_scenario(s.yaml, "again");
+  EXPECT_EQ(again.seed, 77u);
+  EXPECT_TRUE(again.movers.empty());
+  EXPECT_EQ(again.objects.size(), s.objects.size());
+}
+
+std::string error_of(const std::string& text) {
+  try {
+    parse_scenario(text, "bad.yaml");
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(Scenario, BadInputNamesFileLineAndField) {
+  const std::string base = "trajectory:\n  waypoints: [[0, 0, 1, 0]]\n";
+  EXPECT_NE(error_of(base + "camera: {fx: -3}\n").find("bad.yaml:3: field 'camera.fx'"), std::string::npos)
+      << error_of(base + "camera: {fx: -3}\n");
+  EXPECT_NE(error_of(base + "movers:\n  - {type: dragon, path: [[0, 0]]}\n").find("bad.yaml:4: field 'movers[0].type'"),
+            std::string::npos);
+  EXPECT_NE(error_of(base + "sensr: {}\n").find("field 'sensr': unknown key"), std::string::npos);
+  EXPECT_NE(error_of("trajectory:\n  waypoints: [[0, 0, 1]]\n").find("field 'trajectory.waypoints[0]'"),
+            std::string::npos);
+  EXPECT_NE(error_of(base + "world:\n  objects:\n    - {center: [0, 0, 0]}\n").find("world.objects[0].label"),
+            std::string::npos);
+  EXPECT_THROW(load_scenario("no-such-scenario"), Error);
+}
+
+}  // namespace
+}  // namespace kestrel::sim
