@@ -19,7 +19,8 @@ MoverPose mover_pose(const MoverSpec& m, double t) {
   std::vector<Vec3> pts = m.path;
   if (m.mode == "loop" && pts.size() > 1) pts.push_back(pts.front());
   std::vector<double> cum{0.0};
-  for (std::size_t i = 1; i < pts.size(); ++i) cum.push_back(cum.back() + (pts[i] - pts[i - 1]).norm());
+  for (std::size_t i = 1; i < pts.size(); ++i)
+    cum.push_back(cum.back() + (pts[i] - pts[i - 1]).norm());
   const double total = cum.back();
   double s = m.speed * elapsed;
   bool backwards = false;

@@ -17,9 +17,12 @@ std::string find_one(const std::filesystem::path& dir, const std::string& prefix
   std::vector<std::string> hits;
   for (const auto& e : std::filesystem::directory_iterator(dir, ec)) {
     const std::string n = e.path().filename().string();
-    if (n.rfind(prefix, 0) == 0 && e.path().extension() == ".png") hits.push_back(e.path().string());
+    if (n.rfind(prefix, 0) == 0 && e.path().extension() == ".png")
+      hits.push_back(e.path().string());
   }
-  if (hits.empty()) throw Error::at((dir / (prefix + "*.png")).string(), 0, "", "person photo not found (set KESTREL_SHARED or the scenario's assets)");
+  if (hits.empty())
+    throw Error::at((dir / (prefix + "*.png")).string(), 0, "",
+                    "person photo not found (set KESTREL_SHARED or the scenario's assets)");
   std::sort(hits.begin(), hits.end());
   return hits.front();
 }
@@ -61,10 +64,12 @@ std::vector<Sprite> load_person_sprites(const std::string& assets_dir) {
   const cv::Mat rgb = cv::imread(rgb_path, cv::IMREAD_COLOR);
   const cv::Mat mask = cv::imread(mask_path, cv::IMREAD_GRAYSCALE);
   if (rgb.empty()) throw Error::at(rgb_path, 0, "", "cannot read the image");
-  if (mask.empty() || mask.size() != rgb.size()) throw Error::at(mask_path, 0, "", "cannot read the mask or its size differs from the image");
+  if (mask.empty() || mask.size() != rgb.size())
+    throw Error::at(mask_path, 0, "", "cannot read the mask or its size differs from the image");
   // The mask is 0 on people. Each large connected region is one person.
   cv::Mat person = mask == 0;
-  cv::morphologyEx(person, person, cv::MORPH_OPEN, cv::getStructuringElement(cv::MORPH_ELLIPSE, {5, 5}));
+  cv::morphologyEx(person, person, cv::MORPH_OPEN,
+                   cv::getStructuringElement(cv::MORPH_ELLIPSE, {5, 5}));
   cv::Mat labels, stats, centroids;
   const int n = cv::connectedComponentsWithStats(person, labels, stats, centroids, 8, CV_32S);
   std::vector<int> order;

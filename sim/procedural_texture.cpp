@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <vector>
 
 #include <opencv2/imgcodecs.hpp>
@@ -27,34 +28,60 @@ class ValueNoise {
  public:
   explicit ValueNoise(std::uint64_t seed) : seed_(seed) {}
   double at(double x, double y, int cells, int octave) const {
+    const std::vector<double>& grid = lattice(cells, octave);
     const int ix = static_cast<int>(std::floor(x)), iy = static_cast<int>(std::floor(y));
     const double fx = x - ix, fy = y - iy;
     const double sx = fx * fx * (3 - 2 * fx), sy = fy * fy * (3 - 2 * fy);
-    const auto lattice = [&](int a, int b) {
-      a = ((a % cells) + cells) % cells;
-      b = ((b % cells) + cells) % cells;
-      return unit(hash_combine(hash_combine(seed_, static_cast<std::uint64_t>(octave)),
-                               static_cast<std::uint64_t>(a) * 73856093ULL ^ static_cast<std::uint64_t>(b)));
+    const int mask = cells - 1;  // cells is a power of two
+    const auto value = [&](int a, int b) {
+      return grid[static_cast<std::size_t>(b & mask) * cells + static_cast<std::size_t>(a & mask)];
     };
-    const double v00 = lattice(ix, iy), v10 = lattice(ix + 1, iy);
-    const double v01 = lattice(ix, iy + 1), v11 = lattice(ix + 1, iy + 1);
+    const double v00 = value(ix, iy), v10 = value(ix + 1, iy);
+    const double v01 = value(ix, iy + 1), v11 = value(ix + 1, iy + 1);
     return (v00 * (1 - sx) + v10 * sx) * (1 - sy) + (v01 * (1 - sx) + v11 * sx) * sy;
   }
-  // Fractal sum in [0, 1]; u, v in [0, 1).
-  double fbm(double u, double v, int base_cells, int octaves) const {
-    double sum = 0, amp = 1, norm = 0;
+  // Fractal noise in [0, 1] (octaves summed with gain 0.55) at every texel of an n x n texture,
+  // octave by octave so that one lattice is in use at a time.
+  std::vector<double> fbm_image(int n, int base_cells, int octaves) const {
+    std::vector<double> out(static_cast<std::size_t>(n) * n, 0.0);
+    double amp = 1, norm = 0;
     int cells = base_cells;
     for (int o = 0; o < octaves; ++o) {
-      sum += amp * at(u * cells, v * cells, cells, o);
+      for (int y = 0; y < n; ++y) {
+        for (int x = 0; x < n; ++x) {
+          out[static_cast<std::size_t>(y) * n + x] +=
+              amp *
+              at(static_cast<double>(x) / n * cells, static_cast<double>(y) / n * cells, cells, o);
+        }
+      }
       norm += amp;
       amp *= 0.55;
       cells *= 2;
     }
-    return sum / norm;
+    for (double& v : out) v /= norm;
+    return out;
   }
 
  private:
+  // Random lattice values of one octave, hashed once (per texel hashing made big textures slow).
+  const std::vector<double>& lattice(int cells, int octave) const {
+    const std::uint64_t key =
+        (static_cast<std::uint64_t>(cells) << 8) | static_cast<std::uint64_t>(octave);
+    auto it = grids_.find(key);
+    if (it != grids_.end()) return it->second;
+    std::vector<double> grid(static_cast<std::size_t>(cells) * cells);
+    for (int b = 0; b < cells; ++b)
+      for (int a = 0; a < cells; ++a)
+        grid[static_cast<std::size_t>(b) * cells + a] = unit(hash_combine(
+            hash_combine(seed_, static_cast<std::uint64_t>(octave)),
+            static_cast<std::uint64_t>(a) * 73856093ULL ^ static_cast<std::uint64_t>(b)));
+    return grids_.emplace(key, std::move(grid)).first->second;
+  }
+
   std::uint64_t seed_;
+  mutable std::map<std::uint64_t, std::vector<double>> grids_;
+  mutable std::uint64_t last_key_ = 0;
+  mutable const std::vector<double>* last_ = nullptr;
 };
 
 struct Canvas {
@@ -93,7 +120,8 @@ class Rng {
 };
 
 void mix(const std::array<int, 3>& a, const std::array<int, 3>& b, double t, double out[3]) {
-  for (int k = 0; k < 3; ++k) out[k] = a[static_cast<std::size_t>(k)] * (1 - t) + b[static_cast<std::size_t>(k)] * t;
+  for (int k = 0; k < 3; ++k)
+    out[k] = a[static_cast<std::size_t>(k)] * (1 - t) + b[static_cast<std::size_t>(k)] * t;
 }
 
 // Scattered marks (speckles, strokes, blobs): the corners that trackers lock on to.
@@ -108,19 +136,22 @@ void scatter_marks(Canvas& cv, Rng& rng, int count, double contrast) {
     if (kind == 0) {
       cv.disc(x, y, rng.uniform(1.0, cv.n / 40.0), c, a);
     } else if (kind == 1) {
-      cv.rect(static_cast<int>(x), static_cast<int>(y), rng.integer(2, cv.n / 24), rng.integer(1, 4), c, a);
+      cv.rect(static_cast<int>(x), static_cast<int>(y), rng.integer(2, cv.n / 24),
+              rng.integer(1, 4), c, a);
     } else {
-      cv.rect(static_cast<int>(x), static_cast<int>(y), rng.integer(1, 4), rng.integer(2, cv.n / 24), c, a);
+      cv.rect(static_cast<int>(x), static_cast<int>(y), rng.integer(1, 4),
+              rng.integer(2, cv.n / 24), c, a);
     }
   }
 }
 
-void base_noise(Canvas& cv, const ValueNoise& noise, const TextureSpec& s, int cells, double contrast) {
+void base_noise(Canvas& cv, const ValueNoise& noise, const TextureSpec& s, int cells,
+                double contrast) {
+  const std::vector<double> f = noise.fbm_image(cv.n, cells, 6);
   for (int y = 0; y < cv.n; ++y) {
     for (int x = 0; x < cv.n; ++x) {
-      const double u = static_cast<double>(x) / cv.n, v = static_cast<double>(y) / cv.n;
-      double t = noise.fbm(u, v, cells, 6);
-      t = std::clamp(0.5 + (t - 0.5) * 2.2 * contrast, 0.0, 1.0);
+      const double t = std::clamp(
+          0.5 + (f[static_cast<std::size_t>(y) * cv.n + x] - 0.5) * 2.2 * contrast, 0.0, 1.0);
       double c[3];
       mix(s.color_a, s.color_b, t, c);
       double* p = cv.at(x, y);
@@ -152,7 +183,8 @@ Texture load_photo(const TextureSpec& spec) {
 
 Texture make_texture(const TextureSpec& spec, std::uint64_t seed) {
   if (!is_power_of_two(spec.size) || spec.size < 16 || spec.size > 4096) {
-    throw Error("texture: size " + std::to_string(spec.size) + " must be a power of two in 16..4096");
+    throw Error("texture: size " + std::to_string(spec.size) +
+                " must be a power of two in 16..4096");
   }
   if (spec.style == "photo") return load_photo(spec);
   const int n = spec.size;
@@ -202,11 +234,14 @@ Texture make_texture(const TextureSpec& spec, std::uint64_t seed) {
     }
     scatter_marks(cv, rng, static_cast<int>(n * n / 1500 * contrast), contrast);
   } else if (spec.style == "wood") {
+    const std::vector<double> warp = noise.fbm_image(n, 2, 4),
+                              grain_noise = noise.fbm_image(n, 16, 3);
     for (int y = 0; y < n; ++y) {
       for (int x = 0; x < n; ++x) {
-        const double u = static_cast<double>(x) / n, v = static_cast<double>(y) / n;
-        const double grain = 0.5 + 0.5 * std::sin(2 * M_PI * (v * 7 + 2.0 * noise.fbm(u, v, 2, 4)));
-        const double t = std::clamp(0.25 + 0.6 * grain * contrast + 0.2 * noise.fbm(u, v, 16, 3), 0.0, 1.0);
+        const std::size_t i = static_cast<std::size_t>(y) * n + x;
+        const double v = static_cast<double>(y) / n;
+        const double grain = 0.5 + 0.5 * std::sin(2 * M_PI * (v * 7 + 2.0 * warp[i]));
+        const double t = std::clamp(0.25 + 0.6 * grain * contrast + 0.2 * grain_noise[i], 0.0, 1.0);
         double c[3];
         mix(spec.color_a, spec.color_b, t, c);
         double* p = cv.at(x, y);

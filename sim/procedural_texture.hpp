@@ -15,10 +15,10 @@ struct TextureSpec {
   std::string style = "noise";
   std::array<int, 3> color_a{160, 150, 140};  // RGB
   std::array<int, 3> color_b{90, 80, 70};     // RGB
-  double scale = 2.0;      // metres covered by one texture repeat
-  double contrast = 1.0;   // 0..1, detail strength (low for feature-poor surfaces)
-  int size = 512;          // texels, a power of two
-  std::string photo;       // style photo: image path
+  double scale = 2.0;                         // metres covered by one texture repeat
+  double contrast = 1.0;  // 0..1, detail strength (low for feature-poor surfaces)
+  int size = 512;         // texels, a power of two
+  std::string photo;      // style photo: image path
 };
 
 // Deterministic in (spec, seed). Throws kestrel::Error for an unknown style or unreadable photo.

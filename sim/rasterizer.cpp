@@ -30,7 +30,8 @@ void RenderTarget::clear(const std::uint8_t top[3], const std::uint8_t bottom[3]
   for (int y = 0; y < height; ++y) {
     const int a = height > 1 ? (256 * y) / (height - 1) : 0;
     std::uint8_t c[3];
-    for (int k = 0; k < 3; ++k) c[k] = static_cast<std::uint8_t>((top[k] * (256 - a) + bottom[k] * a) >> 8);
+    for (int k = 0; k < 3; ++k)
+      c[k] = static_cast<std::uint8_t>((top[k] * (256 - a) + bottom[k] * a) >> 8);
     std::uint8_t* row = bgr.data() + static_cast<std::size_t>(y) * width * 3;
     for (int x = 0; x < width; ++x) {
       row[3 * x] = c[0];
@@ -116,8 +117,8 @@ void Rasterizer::raster_triangle(const ClipVertex& a, const ClipVertex& b, const
     if (!(std::fabs(s[k].x) < kMaxCoord && std::fabs(s[k].y) < kMaxCoord)) return;
   }
   // Texel footprint decides the mip level: log2 of texels per pixel, per triangle.
-  const float area_px = std::fabs((s[1].x - s[0].x) * (s[2].y - s[0].y) -
-                                  (s[2].x - s[0].x) * (s[1].y - s[0].y));
+  const float area_px =
+      std::fabs((s[1].x - s[0].x) * (s[2].y - s[0].y) - (s[2].x - s[0].x) * (s[1].y - s[0].y));
   if (area_px <= 0.0f) return;
   const float du1 = in[1]->u - in[0]->u, dv1 = in[1]->v - in[0]->v;
   const float du2 = in[2]->u - in[0]->u, dv2 = in[2]->v - in[0]->v;
@@ -154,9 +155,11 @@ void Rasterizer::fill(const ClipVertex* sv, const TextureLevel& level, std::uint
   const int idx[3] = {0, i1, i2};
   const std::int64_t min_x = std::min({X[0], X[1], X[2]}), max_x = std::max({X[0], X[1], X[2]});
   const std::int64_t min_y = std::min({Y[0], Y[1], Y[2]}), max_y = std::max({Y[0], Y[1], Y[2]});
-  const int x0 = static_cast<int>(std::max<std::int64_t>(0, (min_x + (1 << kSubBits) - 1) >> kSubBits));
+  const int x0 =
+      static_cast<int>(std::max<std::int64_t>(0, (min_x + (1 << kSubBits) - 1) >> kSubBits));
   const int x1 = static_cast<int>(std::min<std::int64_t>(width_ - 1, max_x >> kSubBits));
-  const int y0 = static_cast<int>(std::max<std::int64_t>(0, (min_y + (1 << kSubBits) - 1) >> kSubBits));
+  const int y0 =
+      static_cast<int>(std::max<std::int64_t>(0, (min_y + (1 << kSubBits) - 1) >> kSubBits));
   const int y1 = static_cast<int>(std::min<std::int64_t>(height_ - 1, max_y >> kSubBits));
   if (x0 > x1 || y0 > y1) return;
 
@@ -174,8 +177,10 @@ void Rasterizer::fill(const ClipVertex* sv, const TextureLevel& level, std::uint
   }
   // Attribute planes f = f0 + fdx (x - x0) + fdy (y - y0) on the snapped vertex positions.
   const double xs0 = static_cast<double>(X[0]) / kSub, ys0 = static_cast<double>(Y[0]) / kSub;
-  const double xs1 = static_cast<double>(X[1]) / kSub - xs0, ys1 = static_cast<double>(Y[1]) / kSub - ys0;
-  const double xs2 = static_cast<double>(X[2]) / kSub - xs0, ys2 = static_cast<double>(Y[2]) / kSub - ys0;
+  const double xs1 = static_cast<double>(X[1]) / kSub - xs0,
+               ys1 = static_cast<double>(Y[1]) / kSub - ys0;
+  const double xs2 = static_cast<double>(X[2]) / kSub - xs0,
+               ys2 = static_cast<double>(Y[2]) / kSub - ys0;
   const double det = xs1 * ys2 - xs2 * ys1;
   const auto plane = [&](float f0, float f1, float f2, double& at_origin, double& gx, double& gy) {
     const double d1 = f1 - f0, d2 = f2 - f0;
@@ -204,7 +209,8 @@ void Rasterizer::fill(const ClipVertex* sv, const TextureLevel& level, std::uint
     float w = static_cast<float>(w0 + wy * dy);
     float uw = static_cast<float>(u0 + uy * dy);
     float vw = static_cast<float>(v0 + vy * dy);
-    const float fwx = static_cast<float>(wx), fux = static_cast<float>(ux), fvx = static_cast<float>(vx);
+    const float fwx = static_cast<float>(wx), fux = static_cast<float>(ux),
+                fvx = static_cast<float>(vx);
     const std::size_t row = static_cast<std::size_t>(y) * W;
     for (int x = x0; x <= x1; ++x) {
       if ((e0 | e1 | e2) >= 0) {

@@ -15,9 +15,9 @@ namespace kestrel::sim {
 struct RenderTarget {
   int width = 0;
   int height = 0;
-  std::vector<std::uint8_t> bgr;     // 3 bytes per pixel
-  std::vector<float> inv_depth;      // 1/z, 0 where nothing was drawn
-  std::vector<std::uint16_t> id;     // instance of the front-most surface
+  std::vector<std::uint8_t> bgr;  // 3 bytes per pixel
+  std::vector<float> inv_depth;   // 1/z, 0 where nothing was drawn
+  std::vector<std::uint16_t> id;  // instance of the front-most surface
   // Pixels each instance covered before the depth test (occluded or not), for the occluded
   // fraction.
   std::vector<std::uint32_t> fragments;

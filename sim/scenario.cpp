@@ -28,11 +28,13 @@ class Reader {
  public:
   explicit Reader(std::string file) : file_(std::move(file)) {}
 
-  [[noreturn]] void fail(const YAML::Node& n, const std::string& field, const std::string& msg) const {
+  [[noreturn]] void fail(const YAML::Node& n, const std::string& field,
+                         const std::string& msg) const {
     throw Error::at(file_, n.IsDefined() ? n.Mark().line + 1 : 0, field, msg);
   }
   // Rejects keys the section does not know, so a typo is an error and not a silent default.
-  void allow(const YAML::Node& map, const std::string& where, std::initializer_list<const char*> keys) const {
+  void allow(const YAML::Node& map, const std::string& where,
+             std::initializer_list<const char*> keys) const {
     if (!map.IsDefined() || map.IsNull()) return;
     if (!map.IsMap()) fail(map, where, "expected a mapping");
     std::set<std::string> ok(keys.begin(), keys.end());
@@ -54,17 +56,20 @@ class Reader {
     const YAML::Node n = sub(map, key);
     return !n.IsNull() ? number(n, where + key) : def;
   }
-  double positive(const YAML::Node& map, const char* key, double def, const std::string& where) const {
+  double positive(const YAML::Node& map, const char* key, double def,
+                  const std::string& where) const {
     const double v = get(map, key, def, where);
     if (!(v > 0.0)) fail(map[key], where + key, "must be > 0");
     return v;
   }
-  double fraction(const YAML::Node& map, const char* key, double def, const std::string& where) const {
+  double fraction(const YAML::Node& map, const char* key, double def,
+                  const std::string& where) const {
     const double v = get(map, key, def, where);
     if (v < 0.0 || v > 1.0) fail(map[key], where + key, "must be in [0, 1]");
     return v;
   }
-  std::string text(const YAML::Node& map, const char* key, const std::string& def, const std::string& where) const {
+  std::string text(const YAML::Node& map, const char* key, const std::string& def,
+                   const std::string& where) const {
     const YAML::Node n = sub(map, key);
     if (!n.IsDefined() || n.IsNull()) return def;
     if (!n.IsScalar()) fail(n, where + key, "expected text");
@@ -79,22 +84,28 @@ class Reader {
       fail(n, where + key, "expected true or false");
     }
   }
-  std::vector<double> list(const YAML::Node& n, const std::string& field, std::size_t min_n, std::size_t max_n) const {
+  std::vector<double> list(const YAML::Node& n, const std::string& field, std::size_t min_n,
+                           std::size_t max_n) const {
     if (!n.IsSequence()) fail(n, field, "expected a list of numbers");
     if (n.size() < min_n || n.size() > max_n) {
-      fail(n, field, "expected " + std::to_string(min_n) + (min_n == max_n ? "" : ".." + std::to_string(max_n)) + " numbers");
+      fail(n, field,
+           "expected " + std::to_string(min_n) +
+               (min_n == max_n ? "" : ".." + std::to_string(max_n)) + " numbers");
     }
     std::vector<double> out;
-    for (std::size_t i = 0; i < n.size(); ++i) out.push_back(number(n[i], field + "[" + std::to_string(i) + "]"));
+    for (std::size_t i = 0; i < n.size(); ++i)
+      out.push_back(number(n[i], field + "[" + std::to_string(i) + "]"));
     return out;
   }
-  Vec3 vec3(const YAML::Node& map, const char* key, const Vec3& def, const std::string& where) const {
+  Vec3 vec3(const YAML::Node& map, const char* key, const Vec3& def,
+            const std::string& where) const {
     const YAML::Node n = sub(map, key);
     if (!n.IsDefined() || n.IsNull()) return def;
     const auto v = list(n, where + key, 3, 3);
     return Vec3(v[0], v[1], v[2]);
   }
-  std::array<int, 3> color(const YAML::Node& map, const char* key, std::array<int, 3> def, const std::string& where) const {
+  std::array<int, 3> color(const YAML::Node& map, const char* key, std::array<int, 3> def,
+                           const std::string& where) const {
     const YAML::Node n = sub(map, key);
     if (!n.IsDefined() || n.IsNull()) return def;
     const auto v = list(n, where + key, 3, 3);
@@ -102,8 +113,8 @@ class Reader {
       if (c < 0 || c > 255) fail(n, where + key, "colour components must be in 0..255");
     return {static_cast<int>(v[0]), static_cast<int>(v[1]), static_cast<int>(v[2])};
   }
-  TextureSpec texture(const YAML::Node& map, const char* key, TextureSpec def, const std::string& where,
-                      const std::string& assets) const {
+  TextureSpec texture(const YAML::Node& map, const char* key, TextureSpec def,
+                      const std::string& where, const std::string& assets) const {
     const YAML::Node n = sub(map, key);
     if (!n.IsDefined() || n.IsNull()) return def;
     const std::string w = where + key + ".";
@@ -116,10 +127,12 @@ class Reader {
     t.contrast = fraction(n, "contrast", def.contrast, w);
     const double size = get(n, "size", def.size, w);
     t.size = static_cast<int>(size);
-    if (t.size < 16 || t.size > 4096 || (t.size & (t.size - 1)) != 0) fail(n["size"], w + "size", "must be a power of two in 16..4096");
+    if (t.size < 16 || t.size > 4096 || (t.size & (t.size - 1)) != 0)
+      fail(n["size"], w + "size", "must be a power of two in 16..4096");
     t.photo = text(n, "photo", def.photo, w);
     if (!t.photo.empty() && t.photo[0] != '/') t.photo = assets + "/" + t.photo;
-    if (t.style == "photo" && t.photo.empty()) fail(n, w + "photo", "style photo needs a photo path");
+    if (t.style == "photo" && t.photo.empty())
+      fail(n, w + "photo", "style photo needs a photo path");
     return t;
   }
 
@@ -130,11 +143,13 @@ class Reader {
 }  // namespace
 
 std::string default_assets_dir() {
-  if (const char* env = std::getenv("KESTREL_SHARED"); env && *env) return std::string(env) + "/data";
+  if (const char* env = std::getenv("KESTREL_SHARED"); env && *env)
+    return std::string(env) + "/data";
   return std::string(KESTREL_SOURCE_DIR) + "/../shared/data";
 }
 
-Scenario parse_scenario(const std::string& text, const std::string& name, const ScenarioOverrides& ov) {
+Scenario parse_scenario(const std::string& text, const std::string& name,
+                        const ScenarioOverrides& ov) {
   YAML::Node root;
   try {
     root = YAML::Load(text);
@@ -146,13 +161,15 @@ Scenario parse_scenario(const std::string& text, const std::string& name, const 
   if (ov.seed >= 0) root["seed"] = ov.seed;
   if (ov.duration > 0) root["duration"] = ov.duration;
   if (ov.no_movers) root.remove("movers");
-  r.allow(root, "", {"name", "description", "seed", "duration", "assets", "camera", "imu", "T_body_camera",
-                     "sensor", "world", "movers", "trajectory"});
+  r.allow(root, "",
+          {"name", "description", "seed", "duration", "assets", "camera", "imu", "T_body_camera",
+           "sensor", "world", "movers", "trajectory"});
   Scenario s;
   s.source = name;
   s.name = r.text(root, "name", name, "");
   const double seed = r.get(root, "seed", 1, "");
-  if (seed < 0 || seed != std::floor(seed)) r.fail(root["seed"], "seed", "must be a non-negative integer");
+  if (seed < 0 || seed != std::floor(seed))
+    r.fail(root["seed"], "seed", "must be a non-negative integer");
   s.seed = static_cast<std::uint64_t>(seed);
   s.duration = r.get(root, "duration", -1.0, "");
   s.assets = r.text(root, "assets", default_assets_dir(), "");
@@ -185,20 +202,23 @@ Scenario parse_scenario(const std::string& text, const std::string& name, const 
     R0 << 0, 0, 1, -1, 0, 0, 0, -1, 0;
     const double tilt = r.get(tbc, "tilt_deg", 0.0, "T_body_camera.") * kDeg;
     const Mat3 R = Eigen::AngleAxisd(tilt, Vec3::UnitY()).toRotationMatrix() * R0;
-    s.calib.T_body_camera = SE3(SO3(R), r.vec3(tbc, "translation", Vec3(0.05, 0.0, 0.02), "T_body_camera."));
+    s.calib.T_body_camera =
+        SE3(SO3(R), r.vec3(tbc, "translation", Vec3(0.05, 0.0, 0.02), "T_body_camera."));
   }
   s.calib.depth_scale = 5000.0;
 
   const YAML::Node sen = sub(root, "sensor");
-  r.allow(sen, "sensor", {"noise", "rgb_noise", "depth_sigma_z2", "depth_min", "depth_max", "edge_holes",
-                          "motion_blur", "exposure_time", "jitter", "drop_rate", "exposure"});
+  r.allow(sen, "sensor",
+          {"noise", "rgb_noise", "depth_sigma_z2", "depth_min", "depth_max", "edge_holes",
+           "motion_blur", "exposure_time", "jitter", "drop_rate", "exposure"});
   SensorSpec& ss = s.sensor;
   ss.noise = r.flag(sen, "noise", true, "sensor.");
   ss.rgb_noise = r.get(sen, "rgb_noise", ss.rgb_noise, "sensor.");
   ss.depth_sigma_z2 = r.get(sen, "depth_sigma_z2", ss.depth_sigma_z2, "sensor.");
   ss.depth_min = r.get(sen, "depth_min", ss.depth_min, "sensor.");
   ss.depth_max = r.positive(sen, "depth_max", ss.depth_max, "sensor.");
-  if (ss.depth_max > 13.0) r.fail(sen["depth_max"], "sensor.depth_max", "16-bit depth at 5000 per metre ends at 13.1 m");
+  if (ss.depth_max > 13.0)
+    r.fail(sen["depth_max"], "sensor.depth_max", "16-bit depth at 5000 per metre ends at 13.1 m");
   ss.edge_holes = r.fraction(sen, "edge_holes", ss.edge_holes, "sensor.");
   ss.motion_blur = static_cast<int>(r.get(sen, "motion_blur", 0, "sensor."));
   ss.exposure_time = r.get(sen, "exposure_time", ss.exposure_time, "sensor.");
@@ -209,14 +229,16 @@ Scenario parse_scenario(const std::string& text, const std::string& name, const 
     if (!e.IsSequence()) r.fail(e, "sensor.exposure", "expected a list of [t, gain]");
     for (std::size_t i = 0; i < e.size(); ++i) {
       const auto v = r.list(e[i], "sensor.exposure[" + std::to_string(i) + "]", 2, 2);
-      if (!(v[1] > 0)) r.fail(e[i], "sensor.exposure[" + std::to_string(i) + "]", "gain must be > 0");
+      if (!(v[1] > 0))
+        r.fail(e[i], "sensor.exposure[" + std::to_string(i) + "]", "gain must be > 0");
       ss.exposure.push_back({v[0], v[1]});
     }
   }
 
   // The world.
   const YAML::Node world = sub(root, "world");
-  r.allow(world, "world", {"sky_top", "sky_bottom", "ground", "boxes", "rooms", "objects", "lights"});
+  r.allow(world, "world",
+          {"sky_top", "sky_bottom", "ground", "boxes", "rooms", "objects", "lights"});
   s.sky_top = r.color(world, "sky_top", s.sky_top, "world.");
   s.sky_bottom = r.color(world, "sky_bottom", s.sky_bottom, "world.");
   if (!sub(world, "ground").IsNull()) {
@@ -253,7 +275,8 @@ Scenario parse_scenario(const std::string& text, const std::string& name, const 
       r.allow(list[i], w, {"label", "center", "size", "yaw_deg", "texture"});
       ObjectSpec o;
       o.label = r.text(list[i], "label", "", w);
-      if (o.label.empty()) r.fail(list[i], w + "label", "an object needs a label (a COCO class name)");
+      if (o.label.empty())
+        r.fail(list[i], w + "label", "an object needs a label (a COCO class name)");
       o.size = r.vec3(list[i], "size", Vec3(0.5, 0.5, 0.9), w);
       // The centre may omit z: the object then stands on the floor.
       const Vec3 c3 = r.vec3(list[i], "center", Vec3(0, 0, -1e9), w);
@@ -273,7 +296,8 @@ Scenario parse_scenario(const std::string& text, const std::string& name, const 
     for (std::size_t i = 0; i < list.size(); ++i) {
       const std::string w = "world.lights[" + std::to_string(i) + "].";
       r.allow(list[i], w, {"min", "max", "gain"});
-      s.lights.push_back({r.vec3(list[i], "min", Vec3::Zero(), w), r.vec3(list[i], "max", Vec3::Zero(), w),
+      s.lights.push_back({r.vec3(list[i], "min", Vec3::Zero(), w),
+                          r.vec3(list[i], "max", Vec3::Zero(), w),
                           r.positive(list[i], "gain", 0.3, w)});
     }
   }
@@ -284,23 +308,32 @@ Scenario parse_scenario(const std::string& text, const std::string& name, const 
     for (std::size_t i = 0; i < list.size(); ++i) {
       const std::string w = "movers[" + std::to_string(i) + "].";
       const YAML::Node m = list[i];
-      r.allow(m, w, {"type", "label", "sprite", "path", "speed", "start", "stop", "mode", "height", "size",
-                     "center", "yaw_deg", "rate_deg", "texture"});
+      r.allow(m, w,
+              {"type", "label", "sprite", "path", "speed", "start", "stop", "mode", "height",
+               "size", "center", "yaw_deg", "rate_deg", "texture"});
       MoverSpec mv;
       mv.type = r.text(m, "type", "person", w);
-      if (mv.type != "person" && mv.type != "vehicle" && mv.type != "box" && mv.type != "chair" && mv.type != "spin") {
-        r.fail(m["type"], w + "type", "unknown mover type '" + mv.type + "' (person, vehicle, box, chair, spin)");
+      if (mv.type != "person" && mv.type != "vehicle" && mv.type != "box" && mv.type != "chair" &&
+          mv.type != "spin") {
+        r.fail(m["type"], w + "type",
+               "unknown mover type '" + mv.type + "' (person, vehicle, box, chair, spin)");
       }
-      const std::string default_label = mv.type == "person" ? "person" : mv.type == "vehicle" ? "car" : mv.type == "box" ? "box" : "chair";
+      const std::string default_label = mv.type == "person"    ? "person"
+                                        : mv.type == "vehicle" ? "car"
+                                        : mv.type == "box"     ? "box"
+                                                               : "chair";
       mv.label = r.text(m, "label", default_label, w);
       mv.sprite = static_cast<int>(r.get(m, "sprite", 0, w));
       mv.speed = r.get(m, "speed", mv.speed, w);
       mv.start = r.get(m, "start", 0.0, w);
       mv.stop = r.get(m, "stop", -1.0, w);
       mv.mode = r.text(m, "mode", "loop", w);
-      if (mv.mode != "loop" && mv.mode != "pingpong" && mv.mode != "once") r.fail(m["mode"], w + "mode", "loop, pingpong or once");
+      if (mv.mode != "loop" && mv.mode != "pingpong" && mv.mode != "once")
+        r.fail(m["mode"], w + "mode", "loop, pingpong or once");
       mv.height = r.positive(m, "height", 1.75, w);
-      const Vec3 def_size = mv.type == "vehicle" ? Vec3(4.2, 1.8, 1.5) : mv.type == "chair" || mv.type == "spin" ? Vec3(0.5, 0.5, 0.95) : Vec3(0.5, 0.5, 0.5);
+      const Vec3 def_size = mv.type == "vehicle"                      ? Vec3(4.2, 1.8, 1.5)
+                            : mv.type == "chair" || mv.type == "spin" ? Vec3(0.5, 0.5, 0.95)
+                                                                      : Vec3(0.5, 0.5, 0.5);
       mv.size = r.vec3(m, "size", def_size, w);
       mv.center = r.vec3(m, "center", Vec3::Zero(), w);
       mv.yaw = r.get(m, "yaw_deg", 0.0, w) * kDeg;
@@ -312,7 +345,8 @@ Scenario parse_scenario(const std::string& text, const std::string& name, const 
       mv.texture = r.texture(m, "texture", def_tex, w, s.assets);
       if (m["path"].IsDefined()) {
         const YAML::Node p = m["path"];
-        if (!p.IsSequence() || p.size() == 0) r.fail(p, w + "path", "expected a list of [x, y] or [x, y, z]");
+        if (!p.IsSequence() || p.size() == 0)
+          r.fail(p, w + "path", "expected a list of [x, y] or [x, y, z]");
         for (std::size_t k = 0; k < p.size(); ++k) {
           const auto v = r.list(p[k], w + "path[" + std::to_string(k) + "]", 2, 3);
           mv.path.emplace_back(v[0], v[1], v.size() > 2 ? v[2] : 0.0);
@@ -330,11 +364,14 @@ Scenario parse_scenario(const std::string& text, const std::string& name, const 
   r.allow(tr, "trajectory", {"kind", "segment_time", "laps", "waypoints", "wobble"});
   TrajectorySpec& ts = s.trajectory;
   ts.kind = r.text(tr, "kind", "handheld", "trajectory.");
-  if (ts.kind != "handheld" && ts.kind != "ugv" && ts.kind != "uav") r.fail(tr["kind"], "trajectory.kind", "handheld, ugv or uav");
+  if (ts.kind != "handheld" && ts.kind != "ugv" && ts.kind != "uav")
+    r.fail(tr["kind"], "trajectory.kind", "handheld, ugv or uav");
   ts.segment_time = r.positive(tr, "segment_time", 1.0, "trajectory.");
   ts.laps = static_cast<int>(r.positive(tr, "laps", 1, "trajectory."));
   const YAML::Node wp = tr["waypoints"];
-  if (!wp.IsSequence() || wp.size() == 0) r.fail(wp.IsDefined() ? wp : tr, "trajectory.waypoints", "expected a list of [x, y, z, yaw_deg(, pitch_deg, roll_deg)]");
+  if (!wp.IsSequence() || wp.size() == 0)
+    r.fail(wp.IsDefined() ? wp : tr, "trajectory.waypoints",
+           "expected a list of [x, y, z, yaw_deg(, pitch_deg, roll_deg)]");
   for (std::size_t k = 0; k < wp.size(); ++k) {
     const auto v = r.list(wp[k], "trajectory.waypoints[" + std::to_string(k) + "]", 4, 6);
     TrajectoryKnot kn;
@@ -365,7 +402,8 @@ Scenario load_scenario(const std::string& name_or_path, const ScenarioOverrides&
   if (!in) {
     std::string names;
     for (const auto& n : builtin_scenario_names()) names += (names.empty() ? "" : ", ") + n;
-    throw Error::at(name_or_path, 0, "scenario", "no such file and no built-in of that name (built-ins: " + names + ")");
+    throw Error::at(name_or_path, 0, "scenario",
+                    "no such file and no built-in of that name (built-ins: " + names + ")");
   }
   std::stringstream buf;
   buf << in.rdbuf();

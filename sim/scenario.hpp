@@ -13,16 +13,16 @@
 namespace kestrel::sim {
 
 struct SensorSpec {
-  bool noise = true;             // false: exact colour and depth (for consistency tests)
-  double rgb_noise = 2.0;        // sigma, grey levels
-  double depth_sigma_z2 = 0.003; // sigma = a z^2 metres (RealSense D455-like)
-  double depth_min = 0.4;        // metres; nearer is a hole
-  double depth_max = 8.0;        // metres; farther is a hole
-  double edge_holes = 0.5;       // probability a pixel at a depth discontinuity is a hole
-  int motion_blur = 0;           // sub-frames averaged over exposure_time (0 or 1: off)
-  double exposure_time = 0.01;   // seconds
-  double jitter = 0.0;           // sigma of frame stamp jitter, seconds
-  double drop_rate = 0.0;        // fraction of frames dropped
+  bool noise = true;              // false: exact colour and depth (for consistency tests)
+  double rgb_noise = 2.0;         // sigma, grey levels
+  double depth_sigma_z2 = 0.003;  // sigma = a z^2 metres (RealSense D455-like)
+  double depth_min = 0.4;         // metres; nearer is a hole
+  double depth_max = 8.0;         // metres; farther is a hole
+  double edge_holes = 0.5;        // probability a pixel at a depth discontinuity is a hole
+  int motion_blur = 0;            // sub-frames averaged over exposure_time (0 or 1: off)
+  double exposure_time = 0.01;    // seconds
+  double jitter = 0.0;            // sigma of frame stamp jitter, seconds
+  double drop_rate = 0.0;         // fraction of frames dropped
   std::vector<std::array<double, 2>> exposure;  // [t, gain] steps; gain 1 before the first
 };
 
@@ -51,17 +51,17 @@ struct LightZone {  // a region where surfaces get less (or more) light: a shado
 struct MoverSpec {
   std::string type = "person";  // person | vehicle | box | chair | spin
   std::string label = "person";
-  int sprite = 0;               // person: which cut-out
-  std::vector<Vec3> path;       // person/vehicle/box/chair: way points (z = ground)
-  double speed = 1.2;           // m/s along the path
-  double start = 0.0;           // s: static before
-  double stop = -1.0;           // s: static after (negative: never)
-  std::string mode = "loop";    // loop | pingpong | once
-  double height = 1.75;         // person
+  int sprite = 0;                   // person: which cut-out
+  std::vector<Vec3> path;           // person/vehicle/box/chair: way points (z = ground)
+  double speed = 1.2;               // m/s along the path
+  double start = 0.0;               // s: static before
+  double stop = -1.0;               // s: static after (negative: never)
+  std::string mode = "loop";        // loop | pingpong | once
+  double height = 1.75;             // person
   Vec3 size = Vec3(0.5, 0.5, 0.5);  // vehicle/box/chair/spin
-  Vec3 center = Vec3::Zero();   // spin: where it turns
-  double yaw = 0.0;             // spin: initial yaw
-  double rate = 1.0;            // spin: rad/s
+  Vec3 center = Vec3::Zero();       // spin: where it turns
+  double yaw = 0.0;                 // spin: initial yaw
+  double rate = 1.0;                // spin: rad/s
   TextureSpec texture;
 };
 
@@ -98,8 +98,8 @@ struct Scenario {
 };
 
 struct ScenarioOverrides {
-  long long seed = -1;       // negative: keep the file's
-  double duration = -1.0;    // negative: keep
+  long long seed = -1;     // negative: keep the file's
+  double duration = -1.0;  // negative: keep
   bool no_movers = false;
 };
 

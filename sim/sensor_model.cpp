@@ -27,24 +27,28 @@ double SensorModel::exposure_gain(double t) const {
 }
 
 double SensorModel::uniform(std::uint64_t key, std::uint64_t index) const {
-  return static_cast<double>(hash_combine(hash_combine(seed_, key), index) >> 11) * (1.0 / 9007199254740992.0);
+  return static_cast<double>(hash_combine(hash_combine(seed_, key), index) >> 11) *
+         (1.0 / 9007199254740992.0);
 }
 
 double SensorModel::gaussian(std::uint64_t key, std::uint64_t index) const {
   return table_[hash_combine(hash_combine(seed_, key), index) & kTableMask];
 }
 
-Image SensorModel::color(const std::vector<std::uint8_t>& bgr, int width, int height, double gain, int frame) const {
+Image SensorModel::color(const std::vector<std::uint8_t>& bgr, int width, int height, double gain,
+                         int frame) const {
   Image out = Image::allocate(width, height, 3, PixelType::kU8);
   std::uint8_t* dst = out.data->data();
   const std::size_t n = static_cast<std::size_t>(width) * height * 3;
   const float g = static_cast<float>(gain);
   if (!spec_.noise || spec_.rgb_noise <= 0) {
-    for (std::size_t i = 0; i < n; ++i) dst[i] = static_cast<std::uint8_t>(std::min(255.0f, bgr[i] * g + 0.5f));
+    for (std::size_t i = 0; i < n; ++i)
+      dst[i] = static_cast<std::uint8_t>(std::min(255.0f, bgr[i] * g + 0.5f));
     return out;
   }
   // A contiguous window of the table at a per-frame offset: cheap, and a fresh pattern per frame.
-  const std::size_t offset = hash_combine(hash_combine(seed_, 0xc01), static_cast<std::uint64_t>(frame)) & kTableMask;
+  const std::size_t offset =
+      hash_combine(hash_combine(seed_, 0xc01), static_cast<std::uint64_t>(frame)) & kTableMask;
   const float sigma = static_cast<float>(spec_.rgb_noise);
   for (std::size_t i = 0; i < n; ++i) {
     const float v = bgr[i] * g + sigma * table_[(offset + i * 7) & kTableMask] + 0.5f;
@@ -53,11 +57,13 @@ Image SensorModel::color(const std::vector<std::uint8_t>& bgr, int width, int he
   return out;
 }
 
-Image SensorModel::depth(const std::vector<float>& inv_depth, int width, int height, double depth_scale, int frame) const {
+Image SensorModel::depth(const std::vector<float>& inv_depth, int width, int height,
+                         double depth_scale, int frame) const {
   Image out = Image::allocate(width, height, 1, PixelType::kU16);
   const float near = static_cast<float>(spec_.depth_min), far = static_cast<float>(spec_.depth_max);
   const float a = spec_.noise ? static_cast<float>(spec_.depth_sigma_z2) : 0.0f;
-  const std::size_t offset = hash_combine(hash_combine(seed_, 0xde9), static_cast<std::uint64_t>(frame)) & kTableMask;
+  const std::size_t offset =
+      hash_combine(hash_combine(seed_, 0xde9), static_cast<std::uint64_t>(frame)) & kTableMask;
   const auto z_at = [&](int x, int y) {
     const float w = inv_depth[static_cast<std::size_t>(y) * width + x];
     return w > 0.0f ? 1.0f / w : 0.0f;
@@ -78,7 +84,8 @@ Image SensorModel::depth(const std::vector<float>& inv_depth, int width, int hei
         if (x + 1 < width) edge |= std::fabs(z_at(x + 1, y) - z) > tol;
         if (y > 0) edge |= std::fabs(z_at(x, y - 1) - z) > tol;
         if (y + 1 < height) edge |= std::fabs(z_at(x, y + 1) - z) > tol;
-        if (edge && uniform(0xed9e + static_cast<std::uint64_t>(frame), static_cast<std::uint64_t>(y) * width + x) < spec_.edge_holes) {
+        if (edge && uniform(0xed9e + static_cast<std::uint64_t>(frame),
+                            static_cast<std::uint64_t>(y) * width + x) < spec_.edge_holes) {
           row[x] = 0;
           continue;
         }

@@ -18,9 +18,11 @@ class SensorModel {
   // Exposure gain at time t: the last step at or before t, 1 before the first.
   double exposure_gain(double t) const;
   // bgr: the rendered (possibly blurred) picture; frame: index for the noise stream.
-  Image color(const std::vector<std::uint8_t>& bgr, int width, int height, double gain, int frame) const;
+  Image color(const std::vector<std::uint8_t>& bgr, int width, int height, double gain,
+              int frame) const;
   // inv_depth: 1/z per pixel, 0 = nothing there. depth_scale: raw units per metre.
-  Image depth(const std::vector<float>& inv_depth, int width, int height, double depth_scale, int frame) const;
+  Image depth(const std::vector<float>& inv_depth, int width, int height, double depth_scale,
+              int frame) const;
   // A standard normal deviate and a uniform in [0, 1), both pure functions of (key, index).
   double gaussian(std::uint64_t key, std::uint64_t index) const;
   double uniform(std::uint64_t key, std::uint64_t index) const;

@@ -7,7 +7,8 @@
 
 namespace kestrel::sim {
 
-RecordStats record_sequence(Simulator& sim, const std::string& dir, const std::function<void(int, int)>& progress) {
+RecordStats record_sequence(Simulator& sim, const std::string& dir,
+                            const std::function<void(int, int)>& progress) {
   io::KestrelSequenceWriter writer(dir, sim.calibration());
   writer.write_scenario(sim.scenario().yaml);
   RecordStats stats;
@@ -20,7 +21,8 @@ RecordStats record_sequence(Simulator& sim, const std::string& dir, const std::f
   for (int k = 0; k < total; ++k) {
     const auto t0 = std::chrono::steady_clock::now();
     const SimFrame f = sim.render(k);
-    stats.render_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    stats.render_seconds +=
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     ++stats.frames;
     stats.frames_with_quarter_movers += f.mover_fraction >= 0.25;
     // The truth is written at the true exposure time; the frame at the sensor's stamp.

@@ -9,10 +9,10 @@
 namespace kestrel::sim {
 
 struct RecordStats {
-  int frames = 0;           // rendered
-  int written = 0;          // written (not dropped)
+  int frames = 0;   // rendered
+  int written = 0;  // written (not dropped)
   int imu_samples = 0;
-  double render_seconds = 0.0;  // time spent rendering (not writing)
+  double render_seconds = 0.0;         // time spent rendering (not writing)
   int frames_with_quarter_movers = 0;  // frames where movers cover >= 25 % of the image
 };
 

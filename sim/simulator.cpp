@@ -18,19 +18,24 @@ std::uint8_t channel(const std::array<int, 3>& rgb, int bgr_index) {
 SplineTrajectory make_trajectory(const Scenario& sc) {
   const TrajectorySpec& ts = sc.trajectory;
   std::vector<TrajectoryKnot> knots;
-  for (int lap = 0; lap < ts.laps; ++lap) knots.insert(knots.end(), ts.knots.begin(), ts.knots.end());
+  for (int lap = 0; lap < ts.laps; ++lap)
+    knots.insert(knots.end(), ts.knots.begin(), ts.knots.end());
   Wobble wobble;
   // Three incommensurate frequencies per channel read as an unsteady hand or a hovering drone.
   const double ratios[3] = {1.0, 1.73, 2.91};
   std::uint64_t k = 0;
-  const auto phase = [&] { return 2.0 * M_PI * static_cast<double>(hash_combine(sc.seed, 0x70b + ++k) >> 11) / 9007199254740992.0; };
+  const auto phase = [&] {
+    return 2.0 * M_PI * static_cast<double>(hash_combine(sc.seed, 0x70b + ++k) >> 11) /
+           9007199254740992.0;
+  };
   for (int c = 0; c < 6; ++c) {
     const bool rot = c >= 3;
     double amp = rot ? ts.wobble_rotation : ts.wobble_position;
     if (ts.kind == "ugv" && (c == 2 || c == 4 || c == 5)) amp = 0.0;  // a ground robot stays level
     if (amp <= 0.0) continue;
     for (int j = 0; j < 3; ++j) {
-      wobble.terms.push_back({c, amp / (j + 1), ts.wobble_frequency * ratios[j] * (1.0 + 0.07 * c), phase()});
+      wobble.terms.push_back(
+          {c, amp / (j + 1), ts.wobble_frequency * ratios[j] * (1.0 + 0.07 * c), phase()});
     }
   }
   return SplineTrajectory(knots, ts.segment_time, wobble);
@@ -43,7 +48,8 @@ Simulator::Simulator(Scenario scenario)
   world_ = std::make_unique<World>(scenario_);
   trajectory_ = std::make_unique<SplineTrajectory>(make_trajectory(scenario_));
   duration_ = scenario_.duration > 0 ? scenario_.duration : trajectory_->duration();
-  frame_count_ = std::max(1, static_cast<int>(std::floor(duration_ * scenario_.calib.fps + 1e-6)) + 1);
+  frame_count_ =
+      std::max(1, static_cast<int>(std::floor(duration_ * scenario_.calib.fps + 1e-6)) + 1);
   const PinholeCamera& cam = scenario_.calib.camera;
   target_.resize(cam.width, cam.height, kMaxInstances);
   if (scenario_.sensor.motion_blur > 1) blur_target_.resize(cam.width, cam.height, kMaxInstances);
@@ -78,7 +84,8 @@ SimFrame Simulator::render(int k) {
   double jitter = 0.0;
   if (ss.jitter > 0.0) jitter = ss.jitter * sensor_.gaussian(0x717, static_cast<std::uint64_t>(k));
   f.stamp = static_cast<Timestamp>(std::llround((f.time + jitter) * 1e9));
-  f.dropped = k > 0 && ss.drop_rate > 0.0 && sensor_.uniform(0xd50, static_cast<std::uint64_t>(k)) < ss.drop_rate;
+  f.dropped = k > 0 && ss.drop_rate > 0.0 &&
+              sensor_.uniform(0xd50, static_cast<std::uint64_t>(k)) < ss.drop_rate;
 
   std::vector<bool> moving;
   draw_scene(f.time, target_, moving);
@@ -93,10 +100,12 @@ SimFrame Simulator::render(int k) {
     for (int j = 0; j < ss.motion_blur; ++j) {
       const double tj = f.time + ss.exposure_time * ((j + 0.5) / ss.motion_blur - 0.5);
       draw_scene(tj, blur_target_, unused);
-      for (std::size_t i = 0; i < n * 3; ++i) blur_sum_[i] = static_cast<std::uint16_t>(blur_sum_[i] + blur_target_.bgr[i]);
+      for (std::size_t i = 0; i < n * 3; ++i)
+        blur_sum_[i] = static_cast<std::uint16_t>(blur_sum_[i] + blur_target_.bgr[i]);
     }
     std::vector<std::uint8_t> avg(n * 3);
-    for (std::size_t i = 0; i < n * 3; ++i) avg[i] = static_cast<std::uint8_t>((blur_sum_[i] + ss.motion_blur / 2) / ss.motion_blur);
+    for (std::size_t i = 0; i < n * 3; ++i)
+      avg[i] = static_cast<std::uint8_t>((blur_sum_[i] + ss.motion_blur / 2) / ss.motion_blur);
     f.color = sensor_.color(avg, W, H, gain, k);
   } else {
     f.color = sensor_.color(target_.bgr, W, H, gain, k);
@@ -145,7 +154,9 @@ SimFrame Simulator::render(int k) {
     b.occluded = frags > 0 ? std::clamp(1.0 - e.count / frags, 0.0, 1.0) : 0.0;
     f.boxes.push_back(b);
   };
-  for (int i = 0; i < n_movers; ++i) add_box(i + 1, world_->movers()[static_cast<std::size_t>(i)].label, moving[static_cast<std::size_t>(i)]);
+  for (int i = 0; i < n_movers; ++i)
+    add_box(i + 1, world_->movers()[static_cast<std::size_t>(i)].label,
+            moving[static_cast<std::size_t>(i)]);
   for (const StaticObject& o : world_->objects()) add_box(o.id, o.label, false);
   return f;
 }
@@ -158,7 +169,8 @@ std::vector<ImuSample> Simulator::imu() const {
   out.reserve(static_cast<std::size_t>(count));
   for (long long i = 0; i < count; ++i) {
     const double t = static_cast<double>(i) / noise.rate_hz;
-    out.push_back(synth.sample(trajectory_->state(t), static_cast<Timestamp>(std::llround(t * 1e9))));
+    out.push_back(
+        synth.sample(trajectory_->state(t), static_cast<Timestamp>(std::llround(t * 1e9))));
   }
   return out;
 }

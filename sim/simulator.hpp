@@ -28,13 +28,13 @@ struct SimBox {
 
 struct SimFrame {
   int index = 0;
-  double time = 0.0;    // true exposure time, seconds from the start
-  Timestamp stamp = 0;  // what the sensor reports (jitter included)
-  bool dropped = false; // the sensor lost this frame (only the truth exists)
-  BodyState body;       // truth at `time`
-  Image color;          // BGR 8-bit
-  Image depth;          // 16-bit, calib.depth_scale per metre
-  Image mask;           // 16-bit mover ids, 0 = static
+  double time = 0.0;     // true exposure time, seconds from the start
+  Timestamp stamp = 0;   // what the sensor reports (jitter included)
+  bool dropped = false;  // the sensor lost this frame (only the truth exists)
+  BodyState body;        // truth at `time`
+  Image color;           // BGR 8-bit
+  Image depth;           // 16-bit, calib.depth_scale per metre
+  Image mask;            // 16-bit mover ids, 0 = static
   std::vector<SimBox> boxes;
   double mover_fraction = 0.0;  // share of the image covered by movers
 };

@@ -9,12 +9,18 @@ namespace {
 
 double channel_of(const TrajectoryKnot& k, int c) {
   switch (c) {
-    case 0: return k.position.x();
-    case 1: return k.position.y();
-    case 2: return k.position.z();
-    case 3: return k.yaw;
-    case 4: return k.pitch;
-    default: return k.roll;
+    case 0:
+      return k.position.x();
+    case 1:
+      return k.position.y();
+    case 2:
+      return k.position.z();
+    case 3:
+      return k.yaw;
+    case 4:
+      return k.pitch;
+    default:
+      return k.roll;
   }
 }
 
@@ -43,9 +49,7 @@ SplineTrajectory::SplineTrajectory(std::vector<TrajectoryKnot> knots, double seg
   control_.push_back(knots.back());
 }
 
-double SplineTrajectory::duration() const {
-  return static_cast<double>(control_.size() - 3) * dt_;
-}
+double SplineTrajectory::duration() const { return static_cast<double>(control_.size() - 3) * dt_; }
 
 void SplineTrajectory::channels(double t, double q[6], double dq[6], double ddq[6]) const {
   const int segments = static_cast<int>(control_.size()) - 3;
@@ -65,9 +69,10 @@ void SplineTrajectory::channels(double t, double q[6], double dq[6], double ddq[
   }
   // Uniform cubic B-spline basis and its derivatives with respect to u.
   const double u2 = u * u, u3 = u2 * u, m = 1.0 - u;
-  const double B[4] = {m * m * m / 6.0, (3 * u3 - 6 * u2 + 4) / 6.0, (-3 * u3 + 3 * u2 + 3 * u + 1) / 6.0,
-                       u3 / 6.0};
-  const double dB[4] = {-m * m / 2.0, (3 * u2 - 4 * u) / 2.0, (-3 * u2 + 2 * u + 1) / 2.0, u2 / 2.0};
+  const double B[4] = {m * m * m / 6.0, (3 * u3 - 6 * u2 + 4) / 6.0,
+                       (-3 * u3 + 3 * u2 + 3 * u + 1) / 6.0, u3 / 6.0};
+  const double dB[4] = {-m * m / 2.0, (3 * u2 - 4 * u) / 2.0, (-3 * u2 + 2 * u + 1) / 2.0,
+                        u2 / 2.0};
   const double ddB[4] = {m, 3 * u - 2, -3 * u + 1, u};
   for (int c = 0; c < 6; ++c) {
     q[c] = dq[c] = ddq[c] = 0.0;
@@ -102,7 +107,8 @@ BodyState SplineTrajectory::state(double t) const {
   s.v_w = Vec3(dq[0], dq[1], dq[2]);
   s.a_w = Vec3(ddq[0], ddq[1], ddq[2]);
   // Euler rates to the world angular velocity: each rate turns about its own (rotated) axis.
-  const Vec3 omega_w = dq[3] * Vec3::UnitZ() + dq[4] * (Rz * Vec3::UnitY()) + dq[5] * (Rzy * Vec3::UnitX());
+  const Vec3 omega_w =
+      dq[3] * Vec3::UnitZ() + dq[4] * (Rz * Vec3::UnitY()) + dq[5] * (Rzy * Vec3::UnitX());
   s.omega_b = R.transpose() * omega_w;
   return s;
 }

@@ -7,8 +7,7 @@ namespace kestrel::sim {
 
 bool is_power_of_two(int n) { return n > 0 && (n & (n - 1)) == 0; }
 
-Texture Texture::from_bgra(int width, int height, std::vector<std::uint8_t> bgra,
-                           bool has_alpha) {
+Texture Texture::from_bgra(int width, int height, std::vector<std::uint8_t> bgra, bool has_alpha) {
   if (!is_power_of_two(width) || !is_power_of_two(height) ||
       bgra.size() != static_cast<std::size_t>(width) * height * 4) {
     throw std::invalid_argument("Texture: size " + std::to_string(width) + "x" +
@@ -27,7 +26,8 @@ Texture Texture::from_bgra(int width, int height, std::vector<std::uint8_t> bgra
       for (int x = 0; x < dst.width; ++x) {
         for (int c = 0; c < 4; ++c) {
           const auto at = [&](int xx, int yy) {
-            return static_cast<int>(src.bgra[(static_cast<std::size_t>(yy) * src.width + xx) * 4 + c]);
+            return static_cast<int>(
+                src.bgra[(static_cast<std::size_t>(yy) * src.width + xx) * 4 + c]);
           };
           const int sum = at(2 * x, 2 * y) + at(2 * x + 1, 2 * y) + at(2 * x, 2 * y + 1) +
                           at(2 * x + 1, 2 * y + 1);

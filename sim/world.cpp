@@ -15,8 +15,8 @@ Vec3f f3(const Vec3& v) { return v.cast<float>(); }
 
 }  // namespace
 
-void add_furniture(Mesh& mesh, const std::string& label, const Vec3f& base, const Vec3f& size, float yaw,
-                   int texture, std::uint16_t instance) {
+void add_furniture(Mesh& mesh, const std::string& label, const Vec3f& base, const Vec3f& size,
+                   float yaw, int texture, std::uint16_t instance) {
   const Eigen::Matrix3f R = Eigen::AngleAxisf(yaw, Vec3f::UnitZ()).toRotationMatrix();
   const auto part = [&](float x, float y, float z, float sx, float sy, float sz) {
     // (x y z) is the part's centre in the object's frame, z up from the floor.
@@ -30,7 +30,8 @@ void add_furniture(Mesh& mesh, const std::string& label, const Vec3f& base, cons
     part(-0.5f * sx + 0.03f, 0, seat + 0.5f * (sz - seat), 0.06f, sy, sz - seat);
     for (float ix : {-1.f, 1.f})
       for (float iy : {-1.f, 1.f})
-        part(ix * (0.5f * sx - leg), iy * (0.5f * sy - leg), 0.5f * (seat - 0.03f), leg, leg, seat - 0.03f);
+        part(ix * (0.5f * sx - leg), iy * (0.5f * sy - leg), 0.5f * (seat - 0.03f), leg, leg,
+             seat - 0.03f);
   } else if (label == "dining table" || label == "table" || label == "desk") {
     const float top = 0.05f, leg = 0.06f;
     part(0, 0, sz - 0.5f * top, sx, sy, top);
@@ -73,9 +74,11 @@ World::World(const Scenario& sc) : movers_(sc.movers), lights_(sc.lights) {
   if (sc.has_ground) {
     const int tex = add_texture(make_texture(sc.ground_texture, seed_for(++k)));
     const Vec3f c = f3(sc.ground_center);
-    const float hx = static_cast<float>(sc.ground_size[0]) / 2, hy = static_cast<float>(sc.ground_size[1]) / 2;
-    add_quad(static_mesh_, c + Vec3f(-hx, -hy, 0), c + Vec3f(hx, -hy, 0), c + Vec3f(hx, hy, 0), c + Vec3f(-hx, hy, 0),
-             Vec2f::Zero(), static_cast<float>(sc.ground_texture.scale), tex, 0, kTile);
+    const float hx = static_cast<float>(sc.ground_size[0]) / 2,
+                hy = static_cast<float>(sc.ground_size[1]) / 2;
+    add_quad(static_mesh_, c + Vec3f(-hx, -hy, 0), c + Vec3f(hx, -hy, 0), c + Vec3f(hx, hy, 0),
+             c + Vec3f(-hx, hy, 0), Vec2f::Zero(), static_cast<float>(sc.ground_texture.scale), tex,
+             0, kTile);
   }
   for (const StaticBoxSpec& b : sc.boxes) {
     const int tex = add_texture(make_texture(b.texture, seed_for(++k)));
@@ -107,14 +110,16 @@ World::World(const Scenario& sc) : movers_(sc.movers), lights_(sc.lights) {
       mover_texture_.push_back(-1);
       continue;
     }
-    if (m.type == "vehicle" && glass_texture_ < 0) glass_texture_ = add_texture(make_texture(glass, seed_for(++k)));
+    if (m.type == "vehicle" && glass_texture_ < 0)
+      glass_texture_ = add_texture(make_texture(glass, seed_for(++k)));
     TextureSpec spec = m.texture;
     if (spec.style == "car") spec.style = "noise";  // paint; the cabin carries the windows
     mover_texture_.push_back(add_texture(make_texture(spec, seed_for(++k))));
   }
 }
 
-void World::mover_mesh(double t, const Vec3& camera_position, Mesh& out, std::vector<bool>& moving) const {
+void World::mover_mesh(double t, const Vec3& camera_position, Mesh& out,
+                       std::vector<bool>& moving) const {
   out.clear();
   moving.assign(movers_.size(), false);
   for (std::size_t i = 0; i < movers_.size(); ++i) {
@@ -128,34 +133,46 @@ void World::mover_mesh(double t, const Vec3& camera_position, Mesh& out, std::ve
       const std::size_t s = static_cast<std::size_t>(m.sprite) % sprite_texture_.size();
       const float h = static_cast<float>(m.height);
       const float w = h * static_cast<float>(sprite_aspect_[s]);
-      Vec3f d = (f3(camera_position) - p);
-      d.z() = 0;
-      if (d.norm() < 1e-3f) d = Vec3f(std::cos(yaw), std::sin(yaw), 0);
-      d.normalize();
-      const Vec3f right(-d.y(), d.x(), 0);  // viewer's right; normal = right x up = d
-      const Vec3f up(0, 0, h);
-      const Vertex v0{p - 0.5f * w * right, Vec2f(0.f, 1.f)}, v1{p + 0.5f * w * right, Vec2f(1.f, 1.f)};
-      const Vertex v2{p + 0.5f * w * right + up, Vec2f(1.f, 0.f)}, v3{p - 0.5f * w * right + up, Vec2f(0.f, 0.f)};
-      const float shade = face_shade(d);
+      // The cut-out turns to face the camera and, when seen from well above (a drone), also
+      // leans back about its feet to face it: an upright flat photo seen from above is squashed
+      // into something no detector calls a person. From eye level it stays upright.
+      Vec3f to_cam = f3(camera_position) - (p + Vec3f(0, 0, 0.5f * h));
+      Vec3f horizontal(to_cam.x(), to_cam.y(), 0);
+      if (horizontal.norm() < 1e-3f) horizontal = Vec3f(std::cos(yaw), std::sin(yaw), 0);
+      horizontal.normalize();
+      const float elevation = std::atan2(to_cam.z(), std::hypot(to_cam.x(), to_cam.y()));
+      const float ramp = std::clamp((elevation - 0.26f) / 0.35f, 0.0f, 1.0f);  // 15..35 deg
+      const float lean = std::min(elevation, 1.2f) * ramp * ramp * (3 - 2 * ramp);
+      const Vec3f n = std::cos(lean) * horizontal + std::sin(lean) * Vec3f::UnitZ();
+      const Vec3f up_dir = -std::sin(lean) * horizontal + std::cos(lean) * Vec3f::UnitZ();
+      const Vec3f right = up_dir.cross(n);  // viewer's right; right x up = n faces the camera
+      const Vec3f up = h * up_dir;
+      const Vertex v0{p - 0.5f * w * right, Vec2f(0.f, 1.f)},
+          v1{p + 0.5f * w * right, Vec2f(1.f, 1.f)};
+      const Vertex v2{p + 0.5f * w * right + up, Vec2f(1.f, 0.f)},
+          v3{p - 0.5f * w * right + up, Vec2f(0.f, 0.f)};
+      const float shade = face_shade(Vec3f(n.x(), n.y(), 0).normalized());
       out.push_back(Triangle{{v0, v1, v2}, sprite_texture_[s], id, shade});
       out.push_back(Triangle{{v0, v2, v3}, sprite_texture_[s], id, shade});
       // Texture coordinates at exactly 1.0 would wrap to the opposite edge.
       for (std::size_t k = out.size() - 2; k < out.size(); ++k)
-        for (Vertex& v : out[k].v) v.uv = v.uv.cwiseMax(Vec2f(0.002f, 0.002f)).cwiseMin(Vec2f(0.998f, 0.998f));
+        for (Vertex& v : out[k].v)
+          v.uv = v.uv.cwiseMax(Vec2f(0.002f, 0.002f)).cwiseMin(Vec2f(0.998f, 0.998f));
     } else if (m.type == "vehicle") {
       const Vec3f sz = f3(m.size);
       const float body_h = 0.55f * sz.z();
       const Eigen::Matrix3f R = Eigen::AngleAxisf(yaw, Vec3f::UnitZ()).toRotationMatrix();
-      add_box(out, p + Vec3f(0, 0, 0.5f * body_h + 0.15f), Vec3f(sz.x(), sz.y(), body_h), yaw, mover_texture_[i], id,
-              1.5f, kTile, BoxFaces{false, false, false});
-      add_box(out, p + R * Vec3f(-0.1f * sz.x(), 0, body_h + 0.15f + 0.5f * (sz.z() - body_h - 0.15f)),
-              Vec3f(0.55f * sz.x(), 0.92f * sz.y(), sz.z() - body_h - 0.15f), yaw, glass_texture_, id, 1.0f, kTile,
-              BoxFaces{false, true, false});
+      add_box(out, p + Vec3f(0, 0, 0.5f * body_h + 0.15f), Vec3f(sz.x(), sz.y(), body_h), yaw,
+              mover_texture_[i], id, 1.5f, kTile, BoxFaces{false, false, false});
+      add_box(out,
+              p + R * Vec3f(-0.1f * sz.x(), 0, body_h + 0.15f + 0.5f * (sz.z() - body_h - 0.15f)),
+              Vec3f(0.55f * sz.x(), 0.92f * sz.y(), sz.z() - body_h - 0.15f), yaw, glass_texture_,
+              id, 1.0f, kTile, BoxFaces{false, true, false});
       // Wheels fill the gap under the body so the vehicle stands on the ground.
       for (float ix : {-0.33f, 0.33f})
         for (float iy : {-0.42f, 0.42f})
-          add_box(out, p + R * Vec3f(ix * sz.x(), iy * sz.y(), 0.15f), Vec3f(0.6f, 0.2f, 0.3f), yaw, glass_texture_, id,
-                  1.0f, kTile, BoxFaces{false, true, false});
+          add_box(out, p + R * Vec3f(ix * sz.x(), iy * sz.y(), 0.15f), Vec3f(0.6f, 0.2f, 0.3f), yaw,
+                  glass_texture_, id, 1.0f, kTile, BoxFaces{false, true, false});
     } else {
       const std::string label = m.type == "box" ? m.label : "chair";
       add_furniture(out, label, p, f3(m.size), yaw, mover_texture_[i], id);

@@ -41,7 +41,8 @@ class World {
 
   // The movers at time t; people turn to face camera_position (they are flat cut-outs).
   // moving[i] tells whether mover i moves at t.
-  void mover_mesh(double t, const Vec3& camera_position, Mesh& out, std::vector<bool>& moving) const;
+  void mover_mesh(double t, const Vec3& camera_position, Mesh& out,
+                  std::vector<bool>& moving) const;
 
  private:
   int add_texture(Texture t);
@@ -60,7 +61,7 @@ class World {
 
 // Furniture shapes shared by static objects and movers: a chair (seat, back, legs) or table
 // (top, legs) filling the box whose floor centre is `base`; anything else is a plain box.
-void add_furniture(Mesh& mesh, const std::string& label, const Vec3f& base, const Vec3f& size, float yaw,
-                   int texture, std::uint16_t instance);
+void add_furniture(Mesh& mesh, const std::string& label, const Vec3f& base, const Vec3f& size,
+                   float yaw, int texture, std::uint16_t instance);
 
 }  // namespace kestrel::sim

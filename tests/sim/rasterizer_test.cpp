@@ -36,7 +36,8 @@ TEST(Rasterizer, TiltedPlaneHasExactDepthEverywhere) {
   Mesh mesh;
   const auto f = [](const Vec3& v) { return Vec3f(v.cast<float>()); };
   const double s = 6.0;
-  Vec3f p[4] = {f(c - s * e1 - s * e2), f(c + s * e1 - s * e2), f(c + s * e1 + s * e2), f(c - s * e1 + s * e2)};
+  Vec3f p[4] = {f(c - s * e1 - s * e2), f(c + s * e1 - s * e2), f(c + s * e1 + s * e2),
+                f(c - s * e1 + s * e2)};
   // Order the corners so that the face points at the camera.
   if ((p[1] - p[0]).cross(p[3] - p[0]).dot(p[0]) > 0) std::swap(p[1], p[3]);
   add_quad(mesh, p[0], p[1], p[2], p[3], Vec2f::Zero(), 1.0f, 0, 7, 1.0f);
@@ -65,15 +66,16 @@ TEST(Rasterizer, BackFacesAreCulledAndNearGeometryIsClipped) {
   const auto textures = one_texture();
   Mesh away;
   // Normal +z: seen from behind by a camera at the origin looking along +z.
-  add_quad(away, Vec3f(-1, -1, 2), Vec3f(1, -1, 2), Vec3f(1, 1, 2), Vec3f(-1, 1, 2), Vec2f::Zero(), 1.0f, 0, 3, 1.0f);
+  add_quad(away, Vec3f(-1, -1, 2), Vec3f(1, -1, 2), Vec3f(1, 1, 2), Vec3f(-1, 1, 2), Vec2f::Zero(),
+           1.0f, 0, 3, 1.0f);
   RenderTarget t = target_for(cam);
   Rasterizer(cam).draw(away, textures, SE3(), t);
   EXPECT_EQ(t.fragments[3], 0u);
 
   // A floor 1 m below the camera running from behind it to 20 m ahead (y down is +y).
   Mesh floor;
-  add_quad(floor, Vec3f(-5, 1, -3), Vec3f(5, 1, -3), Vec3f(5, 1, 20), Vec3f(-5, 1, 20), Vec2f::Zero(), 1.0f, 0, 4,
-           1.0f);
+  add_quad(floor, Vec3f(-5, 1, -3), Vec3f(5, 1, -3), Vec3f(5, 1, 20), Vec3f(-5, 1, 20),
+           Vec2f::Zero(), 1.0f, 0, 4, 1.0f);
   RenderTarget f = target_for(cam);
   Rasterizer(cam).draw(floor, textures, SE3(), f);
   EXPECT_GT(f.fragments[4], 0u);
@@ -95,9 +97,14 @@ TEST(Rasterizer, SharedEdgesDrawEachPixelOnce) {
   for (int i = 0; i < k; ++i) {
     const double a0 = 2 * M_PI * i / k, a1 = 2 * M_PI * (i + 1) / k;
     const Vec3f c(0.01f, 0.02f, 2.0f);
-    const Vec3f p0 = c + r * Vec3f(static_cast<float>(std::cos(a0)), static_cast<float>(std::sin(a0)), 0);
-    const Vec3f p1 = c + r * Vec3f(static_cast<float>(std::cos(a1)), static_cast<float>(std::sin(a1)), 0);
-    Triangle t{{{c, Vec2f::Zero()}, {p1, Vec2f::Zero()}, {p0, Vec2f::Zero()}}, 0, static_cast<std::uint16_t>(1 + i % 2), 1.0f};
+    const Vec3f p0 =
+        c + r * Vec3f(static_cast<float>(std::cos(a0)), static_cast<float>(std::sin(a0)), 0);
+    const Vec3f p1 =
+        c + r * Vec3f(static_cast<float>(std::cos(a1)), static_cast<float>(std::sin(a1)), 0);
+    Triangle t{{{c, Vec2f::Zero()}, {p1, Vec2f::Zero()}, {p0, Vec2f::Zero()}},
+               0,
+               static_cast<std::uint16_t>(1 + i % 2),
+               1.0f};
     mesh.push_back(t);
   }
   RenderTarget t = target_for(cam);

@@ -12,7 +12,8 @@ namespace {
 
 TEST(Scenario, EveryBuiltInParses) {
   const auto names = builtin_scenario_names();
-  for (const char* expected : {"office-static", "cafe", "market", "uav-zigzag", "ugv-loop", "corridor-dark"}) {
+  for (const char* expected :
+       {"office-static", "cafe", "market", "uav-zigzag", "ugv-loop", "corridor-dark"}) {
     EXPECT_NE(std::find(names.begin(), names.end(), expected), names.end()) << expected;
   }
   for (const auto& name : names) {
@@ -54,14 +55,18 @@ std::string error_of(const std::string& text) {
 
 TEST(Scenario, BadInputNamesFileLineAndField) {
   const std::string base = "trajectory:\n  waypoints: [[0, 0, 1, 0]]\n";
-  EXPECT_NE(error_of(base + "camera: {fx: -3}\n").find("bad.yaml:3: field 'camera.fx'"), std::string::npos)
+  EXPECT_NE(error_of(base + "camera: {fx: -3}\n").find("bad.yaml:3: field 'camera.fx'"),
+            std::string::npos)
       << error_of(base + "camera: {fx: -3}\n");
-  EXPECT_NE(error_of(base + "movers:\n  - {type: dragon, path: [[0, 0]]}\n").find("bad.yaml:4: field 'movers[0].type'"),
+  EXPECT_NE(error_of(base + "movers:\n  - {type: dragon, path: [[0, 0]]}\n")
+                .find("bad.yaml:4: field 'movers[0].type'"),
             std::string::npos);
   EXPECT_NE(error_of(base + "sensr: {}\n").find("field 'sensr': unknown key"), std::string::npos);
-  EXPECT_NE(error_of("trajectory:\n  waypoints: [[0, 0, 1]]\n").find("field 'trajectory.waypoints[0]'"),
-            std::string::npos);
-  EXPECT_NE(error_of(base + "world:\n  objects:\n    - {center: [0, 0, 0]}\n").find("world.objects[0].label"),
+  EXPECT_NE(
+      error_of("trajectory:\n  waypoints: [[0, 0, 1]]\n").find("field 'trajectory.waypoints[0]'"),
+      std::string::npos);
+  EXPECT_NE(error_of(base + "world:\n  objects:\n    - {center: [0, 0, 0]}\n")
+                .find("world.objects[0].label"),
             std::string::npos);
   EXPECT_THROW(load_scenario("no-such-scenario"), Error);
 }

@@ -66,7 +66,8 @@ TEST(Simulator, StaticPixelsReprojectBetweenFramesWithinOnePixel) {
         const Vec3 pb = T_b_a * (za * cam.unproject(Vec2(x, y)));
         const auto uv = cam.project(pb);
         if (!uv || !cam.in_image(*uv, 1)) continue;
-        const int xb = static_cast<int>(std::lround(uv->x())), yb = static_cast<int>(std::lround(uv->y()));
+        const int xb = static_cast<int>(std::lround(uv->x())),
+                  yb = static_cast<int>(std::lround(uv->y()));
         if (b.mask.row<std::uint16_t>(yb)[xb] != 0) continue;
         const double zb = depth_at(b.depth, xb, yb, scale);
         if (zb <= 0 || std::fabs(zb - pb.z()) > 0.02 * pb.z()) continue;  // occluded or an edge
@@ -100,11 +101,13 @@ TEST(Simulator, MasksCoverExactlyTheMoversAndBoxesBoundThem) {
       for (int x = 0; x < W; ++x) {
         const bool same = da[x] == db[x] && std::memcmp(ca + 3 * x, cb + 3 * x, 3) == 0;
         if (ma[x] == 0) {
-          ASSERT_TRUE(same) << "static pixel changed by a mover at " << x << "," << y << " frame " << k;
+          ASSERT_TRUE(same) << "static pixel changed by a mover at " << x << "," << y << " frame "
+                            << k;
         } else {
           ++mover_pixels;
           changed += !same;
-          ASSERT_TRUE(db[x] == 0 || da[x] <= db[x]) << "mover behind the scene at " << x << "," << y;
+          ASSERT_TRUE(db[x] == 0 || da[x] <= db[x])
+              << "mover behind the scene at " << x << "," << y;
         }
       }
     }
@@ -118,7 +121,8 @@ TEST(Simulator, MasksCoverExactlyTheMoversAndBoxesBoundThem) {
       for (int y = 0; y < H; ++y)
         for (int x = 0; x < W; ++x)
           if (a.mask.row<std::uint16_t>(y)[x] == box.instance) {
-            x0 = std::min(x0, x), y0 = std::min(y0, y), x1 = std::max(x1, x), y1 = std::max(y1, y), ++n;
+            x0 = std::min(x0, x), y0 = std::min(y0, y), x1 = std::max(x1, x), y1 = std::max(y1, y),
+            ++n;
           }
       EXPECT_EQ(box.x_min, x0);
       EXPECT_EQ(box.y_min, y0);
@@ -142,6 +146,28 @@ TEST(Simulator, MovingFlagsFollowTheSchedule) {
   };
   EXPECT_EQ(moving_of(3, 5), 0);
   EXPECT_EQ(moving_of(30, 5), 1);
+}
+
+TEST(Simulator, MotionBlurSmearsColourButKeepsTheTruth) {
+  Scenario blurred = small();
+  blurred.sensor.motion_blur = 4;
+  blurred.sensor.exposure_time = 0.03;
+  Simulator sharp(small()), blur(blurred);
+  const SimFrame a = sharp.render(12), b = blur.render(12);
+  EXPECT_EQ(*a.depth.data, *b.depth.data);
+  EXPECT_EQ(*a.mask.data, *b.mask.data);
+  EXPECT_NE(*a.color.data, *b.color.data);
+  // Blur averages neighbours: the image's high-frequency energy drops.
+  const auto energy = [](const Image& im) {
+    double e = 0;
+    for (int y = 0; y < im.height; ++y)
+      for (int x = 1; x < im.width; ++x) {
+        const double d = im.row<std::uint8_t>(y)[3 * x] - im.row<std::uint8_t>(y)[3 * x - 3];
+        e += d * d;
+      }
+    return e;
+  };
+  EXPECT_LT(energy(b.color), energy(a.color));
 }
 
 std::uint64_t fnv(const std::uint8_t* p, std::size_t n, std::uint64_t h) {

@@ -66,7 +66,8 @@ TEST(ImuSynthesizer, NoiselessIntegrationOverOneSecondEndsOnTheTruth) {
   // RK4 with step 2/rate: samples k, k+1, k+2 give the start, middle and end of each step.
   const double h = 2.0 / rate;
   for (std::size_t k = 0; k + 2 < imu.size(); k += 2) {
-    const Deriv a{imu[k].gyro, imu[k].acc}, m{imu[k + 1].gyro, imu[k + 1].acc}, b{imu[k + 2].gyro, imu[k + 2].acc};
+    const Deriv a{imu[k].gyro, imu[k].acc}, m{imu[k + 1].gyro, imu[k + 1].acc},
+        b{imu[k + 2].gyro, imu[k + 2].acc};
     Vec4 q1, q2, q3, q4;
     Vec3 v1, v2, v3, v4, p1, p2, p3, p4;
     rates(s, a, q1, v1, p1);
