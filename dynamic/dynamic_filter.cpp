@@ -10,6 +10,8 @@
 namespace kestrel::dynamic {
 namespace {
 
+constexpr double kPnpInlierPx = 2.0;
+
 cv::Mat as_mat(const Image& im) {
   return cv::Mat(im.height, im.width, CV_8UC1, const_cast<std::uint8_t*>(im.data->data()),
                  im.step());
@@ -68,6 +70,8 @@ const char* to_string(LabelReason r) {
       return "no-flow";
     case LabelReason::kNoGeometry:
       return "no-geometry";
+    case LabelReason::kForegroundInBox:
+      return "foreground-in-box";
   }
   return "?";
 }
@@ -124,6 +128,35 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
         }
       }
       if (!boxes_of[i].empty()) out.box_of[i] = boxes_of[i].front();
+    }
+  }
+
+  // The detected object's own depth: the median depth of the box's core (its central part,
+  // where a person's torso or a car's body is), and which features lie at that depth.
+  std::vector<bool> foreground(n, false);
+  if (use_boxes && in.depth_m.size() == n) {
+    for (std::size_t b = 0; b < in.boxes.size(); ++b) {
+      const BoxRegion& box = in.boxes[b];
+      const float w = box.x_max - box.x_min, h = box.y_max - box.y_min;
+      const BoxRegion core{box.x_min + 0.25f * w, box.y_min + 0.15f * h, box.x_max - 0.25f * w,
+                           box.y_max - 0.35f * h};
+      std::vector<double> core_depths;
+      for (std::size_t i = 0; i < n; ++i) {
+        if (in.depth_m[i] > 0 && core.contains(static_cast<float>(in.points[i].x()),
+                                               static_cast<float>(in.points[i].y()))) {
+          core_depths.push_back(in.depth_m[i]);
+        }
+      }
+      if (core_depths.size() < 3) continue;
+      const double d_fg = median_of(core_depths);
+      const double band = std::max(opt.foreground_band_m, opt.foreground_band_rel * d_fg);
+      for (std::size_t i = 0; i < n; ++i) {
+        if (in.depth_m[i] > 0 && std::fabs(in.depth_m[i] - d_fg) <= band &&
+            std::find(boxes_of[i].begin(), boxes_of[i].end(), static_cast<int>(b)) !=
+                boxes_of[i].end()) {
+          foreground[i] = true;
+        }
+      }
     }
   }
 
@@ -215,7 +248,52 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
     }
   }
 
-  if (!out.geometry_valid && !out.degenerate_motion) {
+  // 2b. With depth, the camera motion itself (PnP-RANSAC of current 3D points against their
+  // flow positions in the previous frame) predicts where every static point must have been,
+  // whatever its depth: no parallax ambiguity, no degeneracy for a still or rotating camera.
+  const bool has_depth = in.depth_m.size() == n;
+  std::vector<double> residual3d(n, -1.0);
+  bool have_3d = false;
+  if (has_depth) {
+    const Mat3 Kinv = in.K.inverse();
+    std::vector<cv::Point3f> obj;
+    std::vector<cv::Point2f> img;
+    for (std::size_t i : cand_idx) {
+      if (in.depth_m[i] <= 0) continue;
+      const Vec3 X = in.depth_m[i] * (Kinv * Vec3(in.points[i].x(), in.points[i].y(), 1.0));
+      obj.emplace_back(static_cast<float>(X.x()), static_cast<float>(X.y()),
+                       static_cast<float>(X.z()));
+      img.push_back(pts_prev[i]);
+    }
+    if (obj.size() >= 15) {
+      cv::Matx33d Kcv;
+      for (int r = 0; r < 3; ++r) {
+        for (int c = 0; c < 3; ++c) Kcv(r, c) = in.K(r, c);
+      }
+      cv::Mat rvec, tvec;
+      std::vector<int> inliers;
+      if (cv::solvePnPRansac(obj, img, cv::Mat(Kcv), cv::noArray(), rvec, tvec, false, 100,
+                             kPnpInlierPx, 0.99, inliers, cv::SOLVEPNP_EPNP) &&
+          inliers.size() >= 10) {
+        cv::Matx33d R;
+        cv::Rodrigues(rvec, R);
+        const cv::Vec3d t(tvec.at<double>(0), tvec.at<double>(1), tvec.at<double>(2));
+        have_3d = true;
+        for (std::size_t i = 0; i < n; ++i) {
+          if (!valid[i] || in.depth_m[i] <= 0) continue;
+          const Vec3 X = in.depth_m[i] * (Kinv * Vec3(in.points[i].x(), in.points[i].y(), 1.0));
+          const cv::Vec3d p = R * cv::Vec3d(X.x(), X.y(), X.z()) + t;
+          if (p[2] <= 1e-6) continue;
+          const double u = Kcv(0, 0) * p[0] / p[2] + Kcv(0, 2);
+          const double v = Kcv(1, 1) * p[1] / p[2] + Kcv(1, 2);
+          residual3d[i] = std::hypot(u - pts_prev[i].x, v - pts_prev[i].y);
+        }
+      }
+    }
+  }
+  out.motion_3d = have_3d;
+
+  if (!out.geometry_valid && !out.degenerate_motion && !have_3d) {
     // Not enough background to fit ego-motion: boxes alone decide.
     for (std::size_t i = 0; i < n; ++i) {
       if (!boxes_of[i].empty()) {
@@ -240,13 +318,26 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
     }
     score[i] = out.degenerate_motion ? out.residual_px[i] : out.epipolar_px[i];
   }
-  std::vector<double> static_scores;
-  static_scores.reserve(cand_idx.size());
-  for (std::size_t i : cand_idx) static_scores.push_back(score[i]);
-  out.outside_threshold_px =
-      adaptive_threshold(static_scores, opt.adaptive_k, opt.outside_min_threshold_px);
-  const double in_box_threshold =
-      out.degenerate_motion ? out.outside_threshold_px : opt.epipolar_threshold_px;
+  // Thresholds adapt to this frame's static residual spread: one for the 3D test, one for
+  // the 2D (epipolar or homography) test used where a feature has no depth.
+  std::vector<double> scores2d, scores3d;
+  for (std::size_t i : cand_idx) {
+    // The 3D spread is taken over the PnP consensus only: with movers covering a third of the
+    // view (all of them candidates when the detector is off), the raw spread would hide them.
+    if (residual3d[i] >= 0 && residual3d[i] <= kPnpInlierPx) scores3d.push_back(residual3d[i]);
+    scores2d.push_back(score[i]);
+  }
+  const double thr2d = adaptive_threshold(scores2d, opt.adaptive_k, opt.outside_min_threshold_px);
+  const double thr3d = adaptive_threshold(scores3d, opt.adaptive_k, opt.residual3d_min_px);
+  out.outside_threshold_px = have_3d ? thr3d : thr2d;
+  std::vector<double> thr_out(n, thr2d);
+  std::vector<double> thr_in(n, out.degenerate_motion ? thr2d : opt.epipolar_threshold_px);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (residual3d[i] >= 0) {
+      score[i] = residual3d[i];
+      thr_out[i] = thr_in[i] = thr3d;
+    }
+  }
 
   // 4. Judge each box from its own features' flow: a box is moving when enough of them violate
   // the ego-motion, and its mover flow is the median flow of those.
@@ -262,7 +353,7 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
       // Features shared with another box say little about this one; count exclusive ones.
       if (boxes_of[i].size() > 1) continue;
       ++inside;
-      if (score[i] > in_box_threshold) {
+      if (score[i] > thr_in[i]) {
         ++violating;
         fx.push_back(pts_cur[i].x - pts_prev[i].x);
         fy.push_back(pts_cur[i].y - pts_prev[i].y);
@@ -277,10 +368,19 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
 
   // 5. Labels.
   for (std::size_t i = 0; i < n; ++i) {
-    const bool in_box = !boxes_of[i].empty();
+    // Background seen through a box (depth known, not at the object's depth) is judged like
+    // any feature outside boxes.
+    const bool background_in_box =
+        !boxes_of[i].empty() && !foreground[i] && in.depth_m.size() == n && in.depth_m[i] > 0;
+    const bool in_box = !boxes_of[i].empty() && !background_in_box;
     if (!valid[i]) {
       out.labels[i] = in_box ? FeatureLabel::kDynamic : FeatureLabel::kUnknown;
       out.reasons[i] = in_box ? LabelReason::kNoFlowInBox : LabelReason::kNoFlow;
+      continue;
+    }
+    if (foreground[i]) {
+      out.labels[i] = FeatureLabel::kDynamic;
+      out.reasons[i] = LabelReason::kForegroundInBox;
       continue;
     }
     if (!in_box) {
@@ -291,7 +391,7 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
       }
       continue;
     }
-    if (score[i] > in_box_threshold) {
+    if (score[i] > thr_in[i]) {
       out.labels[i] = FeatureLabel::kDynamic;
       out.reasons[i] = LabelReason::kEpipolarInBox;
       continue;

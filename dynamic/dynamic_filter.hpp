@@ -36,6 +36,7 @@ enum class LabelReason : std::uint8_t {
   kNoFlowInBox,      // flow lost inside a box: treated as dynamic
   kNoFlow,           // flow lost outside boxes: unknown
   kNoGeometry,       // too few features to fit ego-motion: boxes alone decided
+  kForegroundInBox,  // inside a box, at the depth of the detected object itself
 };
 
 const char* to_string(LabelReason r);
@@ -55,9 +56,12 @@ struct DynamicFilterOptions {
   FilterMode mode = FilterMode::kHybrid;
   double epipolar_threshold_px = 3.0;     // inside boxes (the seed's rule)
   double outside_min_threshold_px = 3.0;  // floor of the adaptive thresholds outside boxes
+  double residual3d_min_px = 2.5;         // floor of the threshold on the depth-based residual
   double adaptive_k = 4.0;  // threshold = median + k * 1.4826 * MAD of static residuals
   double ransac_threshold_px = 1.0;
-  double moving_box_fraction = 0.4;  // a box is moving when this share of its features is
+  double moving_box_fraction = 0.4;   // a box is moving when this share of its features is
+  double foreground_band_m = 0.35;    // object thickness around the box core's depth
+  double foreground_band_rel = 0.12;  // ... or this fraction of the depth, if larger
   int lk_window = 15;
   int lk_levels = 3;
   double fb_max_error_px = 1.0;  // forward-backward consistency of LK
@@ -67,7 +71,12 @@ struct DynamicFilterOptions {
 struct DynamicFilterInput {
   const Image* prev_gray = nullptr;  // 8-bit, 1 channel
   const Image* cur_gray = nullptr;
-  std::vector<Vec2> points;      // feature positions in the current frame (pixels)
+  std::vector<Vec2> points;  // feature positions in the current frame (pixels)
+  // Depth of each feature in metres (0 = none), aligned with points; may be empty. With depth,
+  // a box is split into the detected object (at the depth of the box's core) and what is seen
+  // around it: the object's features are dynamic whether it moves this instant or not (a
+  // person who stands still now walks off later); the background keeps the epipolar test.
+  std::vector<double> depth_m;
   std::vector<BoxRegion> boxes;  // dynamic-class detections matched to this frame
   Mat3 K = Mat3::Identity();
   std::optional<Mat3> R_cur_prev;  // IMU-predicted camera rotation, prev camera into current
@@ -81,7 +90,8 @@ struct DynamicFilterResult {
   std::vector<int> box_of;         // index of the box holding the feature, -1 none
   std::vector<bool> box_moving;    // per input box
   bool geometry_valid = false;
-  bool degenerate_motion = false;     // little translation: homography test used outside boxes
+  bool degenerate_motion = false;     // little translation: homography test where depth is missing
+  bool motion_3d = false;             // ego-motion from depth + PnP was used
   double outside_threshold_px = 0.0;  // the adaptive threshold used this frame
   int tracked = 0;                    // features with valid flow
 

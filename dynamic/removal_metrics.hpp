@@ -2,6 +2,7 @@
 // Dynamic-feature removal measured against ground truth (the definition): a feature is
 // truly dynamic when its pixel lies in the simulator's mover mask. "Removed" means labelled
 // dynamic; "kept" means not labelled dynamic (unknown features stay usable).
+#include <array>
 #include <cstddef>
 #include <vector>
 
@@ -16,6 +17,10 @@ struct RemovalCounts {
   std::size_t dynamic_removed = 0;
   std::size_t static_total = 0;
   std::size_t static_kept = 0;
+  // Where the errors come from, by the filter's reason (index: LabelReason).
+  static constexpr std::size_t kReasons = 10;
+  std::array<std::size_t, kReasons> dynamic_missed_by_reason{};
+  std::array<std::size_t, kReasons> static_removed_by_reason{};
 
   double removed_percent() const {
     return dynamic_total ? 100.0 * dynamic_removed / dynamic_total : 100.0;
@@ -26,12 +31,18 @@ struct RemovalCounts {
     dynamic_removed += o.dynamic_removed;
     static_total += o.static_total;
     static_kept += o.static_kept;
+    for (std::size_t i = 0; i < kReasons; ++i) {
+      dynamic_missed_by_reason[i] += o.dynamic_missed_by_reason[i];
+      static_removed_by_reason[i] += o.static_removed_by_reason[i];
+    }
     return *this;
   }
 };
 
-// mask: 16-bit mover ids (0 = static) of the same frame; points in pixels.
+// mask: 16-bit mover ids (0 = static) of the same frame; points in pixels. reasons (optional,
+// aligned with labels) fill the per-reason error counts.
 RemovalCounts count_removal(const std::vector<Vec2>& points,
-                            const std::vector<FeatureLabel>& labels, const Image& mask);
+                            const std::vector<FeatureLabel>& labels, const Image& mask,
+                            const std::vector<LabelReason>* reasons = nullptr);
 
 }  // namespace kestrel::dynamic

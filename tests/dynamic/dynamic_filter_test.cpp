@@ -155,6 +155,43 @@ TEST(DynamicFilter, TranslatingCameraMoverAcrossEpipolarLines) {
   EXPECT_EQ(o.kept, 100.0);
 }
 
+// Depth of each feature from the id image (the planes are fronto-parallel at known depths).
+std::vector<double> depths_of(const Scene& s, double cam_z) {
+  const double plane_z[3] = {5.0, 2.0, 3.0};
+  std::vector<double> d;
+  for (const Vec2& p : s.points) {
+    const int id = s.ids.at<uint8_t>(static_cast<int>(p.y()), static_cast<int>(p.x()));
+    d.push_back(id < 3 ? plane_z[id] - cam_z : 0.0);
+  }
+  return d;
+}
+
+TEST(DynamicFilter, DepthGivesEgoMotionWithoutParallaxAmbiguity) {
+  // The weak two-frame case above becomes easy with depth: PnP on the background predicts every
+  // static point, so geometry alone finds the mover the detector missed.
+  const Scene s = make_scene({0.02, 0, 0}, {0, -0.05, 0});
+  const Image prev = to_image(s.prev), cur = to_image(s.cur);
+  DynamicFilterInput in = input_for(s, prev, cur);
+  in.depth_m = depths_of(s, 0.0);
+  DynamicFilterOptions geo;
+  geo.mode = FilterMode::kGeometryOnly;
+  const DynamicFilterResult r = classify_features(in, geo);
+  EXPECT_TRUE(r.motion_3d);
+  const Score g = score(s, r);
+  EXPECT_GE(g.removed, 90.0);
+  EXPECT_GE(g.kept, 95.0);
+
+  // With the box, the mover's features at its own depth are dynamic even when it stands still.
+  const Scene still = make_scene({0.02, 0, 0}, {0, 0, 0});
+  const Image p2 = to_image(still.prev), c2 = to_image(still.cur);
+  DynamicFilterInput in2 = input_for(still, p2, c2);
+  in2.depth_m = depths_of(still, 0.0);
+  in2.boxes = {mover_box(still)};
+  const Score h = score(still, classify_features(in2, DynamicFilterOptions{}));
+  EXPECT_GE(h.removed, 95.0);
+  EXPECT_GE(h.kept, 95.0);
+}
+
 TEST(DynamicFilter, StillCameraUsesFlowResidual) {
   // A hovering camera: epipolar geometry is degenerate, the homography test takes over.
   const Scene s = make_scene({0, 0, 0}, {0.03, 0.02, 0});
