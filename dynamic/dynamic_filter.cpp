@@ -384,10 +384,20 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
       continue;
     }
     if (!in_box) {
-      if (score[i] > out.outside_threshold_px) {
-        out.labels[i] = FeatureLabel::kDynamic;
-        out.reasons[i] =
-            out.degenerate_motion ? LabelReason::kFlowResidual : LabelReason::kEpipolarOutside;
+      if (score[i] > thr_out[i]) {
+        if (residual3d[i] >= 0) {
+          out.labels[i] = FeatureLabel::kDynamic;
+          out.reasons[i] = LabelReason::kFlowResidual;
+        } else if (have_3d) {
+          // No depth here (an edge, a hole) while its neighbours have it: the 2D test alone is
+          // too weak to throw the feature away, and too unsure to trust it.
+          out.labels[i] = FeatureLabel::kUnknown;
+          out.reasons[i] = LabelReason::kEpipolarOutside;
+        } else {
+          out.labels[i] = FeatureLabel::kDynamic;
+          out.reasons[i] =
+              out.degenerate_motion ? LabelReason::kFlowResidual : LabelReason::kEpipolarOutside;
+        }
       }
       continue;
     }
