@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <utility>
 
 namespace kestrel::mapping {
 
@@ -22,6 +23,16 @@ int Map::tracked_points(KeyframeId kid, int min_observations) const {
     if (p && static_cast<int>(p->observations.size()) >= min_observations) ++n;
   }
   return n;
+}
+
+void Map::restore(std::map<KeyframeId, Keyframe> keyframes,
+                  std::unordered_map<PointId, MapPoint> points) {
+  keyframes_ = std::move(keyframes);
+  points_ = std::move(points);
+  recent_points_.clear();
+  next_keyframe_ = keyframes_.empty() ? 0 : keyframes_.rbegin()->first + 1;
+  next_point_ = 0;
+  for (const auto& [id, p] : points_) next_point_ = std::max(next_point_, id + 1);
 }
 
 KeyframeId Map::add_keyframe(Timestamp t, const SE3& T_w_c, FrameFeatures features) {

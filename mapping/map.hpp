@@ -88,6 +88,12 @@ class Map {
     return keyframes_.empty() ? -1 : keyframes_.rbegin()->first;
   }
 
+  // Replaces the contents with saved keyframes and points (map_io), keeping their ids; new
+  // ids continue past the largest. Point <-> keyframe links are taken as given (map_io checks
+  // them). No point counts as recent, so none is culled as a newborn.
+  void restore(std::map<KeyframeId, Keyframe> keyframes,
+               std::unordered_map<PointId, MapPoint> points);
+
  private:
   std::map<KeyframeId, Keyframe> keyframes_;
   std::unordered_map<PointId, MapPoint> points_;

@@ -112,16 +112,16 @@ FrameFeatures FeatureExtractor::extract(const Image& image, const Image* ignore,
     if (!(depth_scale > 0.0)) throw std::invalid_argument("FeatureExtractor: depth_scale <= 0");
   }
 
+  // One pass builds and blurs the pyramid once for detection and description alike; describing
+  // every candidate costs less than a second pyramid for the chosen ones (detect + compute).
   std::vector<cv::KeyPoint> kps;
-  impl_->orb->detect(grey, kps, mask);
+  cv::Mat all_desc;
+  impl_->orb->detectAndCompute(grey, mask, kps, all_desc);
   const std::vector<int> chosen =
       bucket(kps, image.width, image.height, options_.cell_px, options_.target_features);
   std::vector<cv::KeyPoint> selected;
   selected.reserve(chosen.size());
   for (int i : chosen) selected.push_back(kps[static_cast<std::size_t>(i)]);
-  cv::Mat desc;
-  // compute() keeps the detected angles and may drop keypoints too close to the border.
-  impl_->orb->compute(grey, selected, desc);
 
   FrameFeatures f;
   f.t = t;
@@ -147,7 +147,7 @@ FrameFeatures FeatureExtractor::extract(const Image& image, const Image* ignore,
                                : Vec3((out.px.x() - camera_.cx) / camera_.fx,
                                       (out.px.y() - camera_.cy) / camera_.fy, 1.0);
     out.un = Vec2(camera_.fx * ray.x() + camera_.cx, camera_.fy * ray.y() + camera_.cy);
-    f.descriptors[i] = OrbDescriptor::from_bytes(desc.ptr<std::uint8_t>(static_cast<int>(i)));
+    f.descriptors[i] = OrbDescriptor::from_bytes(all_desc.ptr<std::uint8_t>(chosen[i]));
     if (depth && !depth->empty()) {
       const int u = std::clamp(static_cast<int>(std::lround(out.px.x())), 0, depth->width - 1);
       const int v = std::clamp(static_cast<int>(std::lround(out.px.y())), 0, depth->height - 1);

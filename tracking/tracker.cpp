@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <string>
 #include <unordered_map>
+#include <utility>
 
 namespace kestrel::tracking {
 
@@ -47,6 +48,15 @@ void Tracker::reset() {
   reference_kf_ = last_kf_ = -1;
   last_matches_.clear();
   frames_since_keyframe_ = 0;
+}
+
+void Tracker::set_map(mapping::Map map) {
+  reset();
+  map_ = std::move(map);
+  if (map_.num_keyframes() == 0) return;  // nothing to relocalize in: initialize as usual
+  reference_kf_ = last_kf_ = map_.last_keyframe_id();
+  last_T_w_c_ = map_.keyframe(last_kf_)->T_w_c;
+  state_ = TrackingState::kLost;
 }
 
 TrackResult Tracker::track(const RgbdFrame& frame, const std::optional<SE3>& predicted_T_w_c,
@@ -123,13 +133,7 @@ TrackResult Tracker::track(FrameFeatures f, const std::optional<SE3>& predicted,
       optimize_ms += ms_since(to);
     }
   } else {
-    // Relocalization: every map point near the last good pose is a candidate.
-    const Vec3 centre = last_T_w_c_.translation();
-    std::vector<std::pair<double, PointId>> near;
-    for (const auto& [id, p] : map_.points()) near.emplace_back((p.p_w - centre).squaredNorm(), id);
-    const std::size_t cap = std::min<std::size_t>(near.size(), 6000);
-    std::partial_sort(near.begin(), near.begin() + static_cast<long>(cap), near.end());
-    for (std::size_t i = 0; i < cap; ++i) pts.push_back(near[i].second);
+    pts = relocalization_candidates(f);
     int pnp_inliers = 0;
     if (auto T = pnp_against(f, pts, &pnp_inliers)) {
       m = search_local_map(f, *T, pts, options_.refine_radius_px * 3.0, nullptr);
@@ -223,6 +227,63 @@ TrackResult Tracker::initialize(FrameFeatures&& f, const std::optional<SE3>& pre
   res.keyframe_id = kid;
   res.inliers = res.matches = static_cast<int>(last_matches_.size());
   return res;
+}
+
+std::vector<PointId> Tracker::relocalization_candidates(const FrameFeatures& f) const {
+  std::vector<PointId> pts;
+  const auto cap = static_cast<std::size_t>(std::max(0, options_.relocalize_max_points));
+  if (map_.num_points() <= cap) {
+    pts.reserve(map_.num_points());
+    for (const auto& [id, p] : map_.points()) pts.push_back(id);
+    std::sort(pts.begin(), pts.end());  // hash order is not reproducible across builds
+    return pts;
+  }
+  // Keyframe voting: a point votes for its keyframes when some feature of the frame carries
+  // nearly its descriptor (ORB-SLAM's TH_LOW).
+  constexpr int kVoteDistance = 50;
+  std::vector<const OrbDescriptor*> query;
+  for (std::size_t i = 0; i < f.size(); ++i) {
+    if (f.status[i] == FeatureStatus::kStatic) query.push_back(&f.descriptors[i]);
+  }
+  std::unordered_map<KeyframeId, int> votes;
+  for (const auto& [id, p] : map_.points()) {
+    bool hit = false;
+    for (const OrbDescriptor* q : query) {
+      if (hamming(*q, p.descriptor) < kVoteDistance) {
+        hit = true;
+        break;
+      }
+    }
+    if (!hit) continue;
+    for (const auto& [kf, feature] : p.observations) {
+      (void)feature;
+      ++votes[kf];
+    }
+  }
+  std::vector<std::pair<int, KeyframeId>> ranked;
+  for (const auto& [kf, n] : votes) ranked.emplace_back(n, kf);
+  std::sort(ranked.rbegin(), ranked.rend());
+  std::vector<KeyframeId> kfs;
+  for (std::size_t i = 0; i < ranked.size() && static_cast<int>(i) < options_.relocalize_keyframes;
+       ++i) {
+    kfs.push_back(ranked[i].second);
+    for (KeyframeId k : map_.covisible(ranked[i].second, options_.local_keyframes / 2)) {
+      kfs.push_back(k);
+    }
+  }
+  std::sort(kfs.begin(), kfs.end());
+  kfs.erase(std::unique(kfs.begin(), kfs.end()), kfs.end());
+  for (KeyframeId k : kfs) {
+    if (const auto* kf = map_.keyframe(k)) {
+      for (PointId p : kf->point_of_feature) {
+        if (p != kNoPoint) pts.push_back(p);
+      }
+    }
+  }
+  std::sort(pts.begin(), pts.end());
+  pts.erase(std::unique(pts.begin(), pts.end()), pts.end());
+  if (pts.size() > cap) pts.resize(cap);
+  return pts;
 }
 
 std::vector<PointId> Tracker::local_points() const {

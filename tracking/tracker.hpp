@@ -35,6 +35,11 @@ struct TrackerOptions {
   int min_matches_prior = 25;      // fewer after the wide search: fall back to PnP
   int min_inliers = 20;            // fewer: the frame is lost
   int min_inliers_relocalize = 30;
+  // Relocalization matches the frame against at most this many map points. A larger map (a
+  // loaded one, or after a long run) is first narrowed down to the keyframes whose points the
+  // frame's descriptors hit most, and their covisible neighbours.
+  int relocalize_max_points = 6000;
+  int relocalize_keyframes = 3;  // best-voted keyframes whose neighbourhoods are searched
   // Keyframe decision (ORB-SLAM, RGB-D variant).
   double keyframe_ratio = 0.75;  // tracked / reference keyframe's tracked points
   int max_frames_between_keyframes = 30;
@@ -86,6 +91,9 @@ class Tracker {
   TrackingState state() const { return state_; }
   const SE3& last_pose() const { return last_T_w_c_; }
   void reset();
+  // Continues in a saved map (multi-session): the next frame relocalizes against all of it,
+  // and the map grows from there. The pose stays at the map's last keyframe until then.
+  void set_map(mapping::Map map);
 
  private:
   struct Matched {
@@ -93,6 +101,7 @@ class Tracker {
     int count = 0;
   };
   std::vector<mapping::PointId> local_points() const;
+  std::vector<mapping::PointId> relocalization_candidates(const FrameFeatures& f) const;
   Matched search_local_map(const FrameFeatures& f, const SE3& T_c_w,
                            const std::vector<mapping::PointId>& pts, double radius,
                            std::vector<mapping::PointId>* visible) const;
