@@ -9,9 +9,11 @@
 
 #include "detect/dynamic_classes.hpp"
 #include "io/cv_image.hpp"
+#include "mapping/map_io.hpp"
 #include "pipeline/bounded_queue.hpp"
 #include "pipeline/detection_buffer.hpp"
 #include "pipeline/imu_buffer.hpp"
+#include "tracking/stereo_matcher.hpp"
 
 namespace kestrel::pipeline {
 namespace {
@@ -23,8 +25,9 @@ double ms_since(Clock::time_point t0) {
 }
 
 struct QueuedFrame {
-  RgbdFrame frame;
+  RgbdFrame frame;  // a stereo pair's left image as a monocular frame, without depth
   Clock::time_point arrival;
+  Image right;  // stereo only: depth comes from matching against it
 };
 
 Image to_gray(const Image& color) {
@@ -58,6 +61,7 @@ struct System::Impl {
   std::unique_ptr<detect::Detector> detector;
   detect::DynamicClassList dynamic_classes;
   tracking::Tracker tracker;
+  std::unique_ptr<tracking::StereoMatcher> stereo;  // stereo calibrations only
 
   BoundedQueue<QueuedFrame> frames;
   BoundedQueue<RgbdFrame> detection_frames;
@@ -92,7 +96,13 @@ struct System::Impl {
         frames(options.frame_queue, FullPolicy::kBlock),
         detection_frames(options.detection_queue,
                          options.sequential ? FullPolicy::kBlock : FullPolicy::kDropOldest),
-        detections(options.detection_tolerance_ns) {}
+        detections(options.detection_tolerance_ns) {
+    if (calib.is_stereo()) {
+      stereo = std::make_unique<tracking::StereoMatcher>(calib.stereo_rig(),
+                                                         tracker.extractor().options());
+    }
+    if (!options.load_map.empty()) tracker.set_map(mapping::load_map(options.load_map));
+  }
 
   void detection_loop() {
     while (auto f = detection_frames.pop()) {
@@ -108,6 +118,16 @@ struct System::Impl {
 
   void tracking_loop() {
     while (auto q = frames.pop()) process(*q);
+  }
+
+  // Left features with depth from the right image (the RGB-D tracker then takes them as is).
+  tracking::FrameFeatures process_stereo(const QueuedFrame& q) {
+    tracking::FrameFeatures f = tracker.extractor().extract(q.frame);
+    if (!stereo) return f;  // a pair without a stereo calibration: monocular
+    const auto t0 = Clock::now();
+    stereo->compute_depth(f, q.frame.color, q.right);
+    stats.record("features.stereo", ms_since(t0));
+    return f;
   }
 
   void process(QueuedFrame& q) {
@@ -131,7 +151,8 @@ struct System::Impl {
     report.detections = static_cast<int>(boxes.size());
 
     auto t0 = Clock::now();
-    tracking::FrameFeatures features = tracker.extractor().extract(frame);
+    tracking::FrameFeatures features =
+        q.right.empty() ? tracker.extractor().extract(frame) : process_stereo(q);
     stats.record("features", ms_since(t0));
     report.features = static_cast<int>(features.size());
 
@@ -146,6 +167,7 @@ struct System::Impl {
       in.points.reserve(features.size());
       for (const auto& kp : features.keypoints) in.points.push_back(kp.px);
       in.boxes = boxes;
+      in.depth_m = features.depth;
       in.K = calib.camera.K();
       {
         std::lock_guard<std::mutex> lock(imu_mutex);
@@ -157,7 +179,9 @@ struct System::Impl {
         keep[i] = r.labels[i] != dynamic::FeatureLabel::kDynamic;
       }
       report.dynamic_features = static_cast<int>(r.count(dynamic::FeatureLabel::kDynamic));
-      if (truth) report.removal = dynamic::count_removal(in.points, r.labels, truth(frame.t));
+      if (truth) {
+        report.removal = dynamic::count_removal(in.points, r.labels, truth(frame.t), &r.reasons);
+      }
     } else if (truth) {
       std::vector<Vec2> pts;
       for (const auto& kp : features.keypoints) pts.push_back(kp.px);
@@ -214,9 +238,16 @@ void System::feed(const Measurement& m) {
   }
   if (const auto* f = std::get_if<RgbdFrame>(&m)) {
     if (impl_->detector) impl_->detection_frames.push(*f);
-    impl_->frames.push(QueuedFrame{*f, Clock::now()});
+    impl_->frames.push(QueuedFrame{*f, Clock::now(), Image{}});
   }
-  // Stereo frames need the stereo front end (a later step); they are ignored here.
+  if (const auto* s = std::get_if<StereoFrame>(&m)) {
+    RgbdFrame left;
+    left.t = s->t;
+    left.color = s->left;
+    left.source = s->source;
+    if (impl_->detector) impl_->detection_frames.push(left);
+    impl_->frames.push(QueuedFrame{std::move(left), Clock::now(), s->right});
+  }
 }
 
 void System::finish() {
@@ -231,6 +262,13 @@ void System::finish() {
   impl_->stats.set_counter("detection.late", impl_->detections.late());
   impl_->stats.set_counter("imu.rejected", impl_->imu.rejected());
   impl_->stats.set_counter("frames.lost", frames_lost());
+}
+
+void System::write_map_outputs(const std::string& dir) const {
+  const mapping::Map& map = impl_->tracker.map();
+  mapping::save_map(dir + "/map.bin", map);
+  mapping::write_keyframes_tum(dir + "/keyframes.txt", map, impl_->calib.T_body_camera);
+  mapping::write_points_ply(dir + "/sparse.ply", map);
 }
 
 Trajectory System::trajectory() const {

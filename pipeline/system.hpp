@@ -31,6 +31,7 @@ struct SystemOptions {
   std::size_t frame_queue = 8;
   std::size_t detection_queue = 2;
   std::vector<std::string> dynamic_classes;  // empty: detect/dynamic_classes defaults
+  std::string load_map;  // map.bin of an earlier session: relocalize in it (multi-session)
 };
 
 // What observers get for every frame (DSO's Output3DWrapper seam: writers, telemetry, report).
@@ -73,6 +74,8 @@ class System {
   void finish();
 
   Trajectory trajectory() const;  // T_w_body of every tracked frame
+  // keyframes.txt (TUM, T_w_body), map.bin (versioned binary map) and sparse.ply, after finish().
+  void write_map_outputs(const std::string& dir) const;
   dynamic::RemovalCounts removal() const;
   const StageStats& stats() const;
   std::size_t frames_lost() const;
