@@ -1,0 +1,143 @@
+#include "maps/occupancy_octree.hpp"
+
+#include <octomap/OcTree.h>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <limits>
+
+#include "core/error.hpp"
+
+namespace kestrel::maps {
+
+struct OccupancyOctree::Impl {
+  explicit Impl(double res) : tree(res) {}
+  octomap::OcTree tree;
+};
+
+OccupancyOctree::OccupancyOctree(const OctreeOptions& options)
+    : options_(options), impl_(std::make_unique<Impl>(options.resolution)) {
+  auto& t = impl_->tree;
+  t.setProbHit(options.prob_hit);
+  t.setProbMiss(options.prob_miss);
+  t.setClampingThresMin(options.clamp_min);
+  t.setClampingThresMax(options.clamp_max);
+}
+OccupancyOctree::~OccupancyOctree() = default;
+OccupancyOctree::OccupancyOctree(OccupancyOctree&&) noexcept = default;
+OccupancyOctree& OccupancyOctree::operator=(OccupancyOctree&&) noexcept = default;
+
+void OccupancyOctree::insert_scan(const Vec3& origin,
+                                  const std::vector<Eigen::Vector3f>& points_w) {
+  octomap::Pointcloud cloud;
+  cloud.reserve(points_w.size());
+  for (const auto& p : points_w) cloud.push_back(p.x(), p.y(), p.z());
+  const octomap::point3d o(static_cast<float>(origin.x()), static_cast<float>(origin.y()),
+                           static_cast<float>(origin.z()));
+  // discretize: one ray per end voxel, which is what keeps a keyframe under a few ms.
+  impl_->tree.insertPointCloud(cloud, o, options_.max_range, /*lazy_eval=*/false,
+                               /*discretize=*/true);
+}
+
+void OccupancyOctree::insert_free_rays(const Vec3& origin,
+                                       const std::vector<Eigen::Vector3f>& ends_w) {
+  auto& t = impl_->tree;
+  const octomap::point3d o(static_cast<float>(origin.x()), static_cast<float>(origin.y()),
+                           static_cast<float>(origin.z()));
+  octomap::KeySet free_cells;
+  octomap::KeyRay ray;
+  for (const auto& e : ends_w) {
+    octomap::point3d end(e.x(), e.y(), e.z());
+    const octomap::point3d d = end - o;
+    if (d.norm() > options_.max_range)
+      end = o + d * static_cast<float>(options_.max_range / d.norm());
+    if (t.computeRayKeys(o, end, ray)) free_cells.insert(ray.begin(), ray.end());
+  }
+  for (const auto& k : free_cells) t.updateNode(k, false, false);
+}
+
+bool OccupancyOctree::is_occupied(const Vec3& p) const {
+  const auto* n = impl_->tree.search(p.x(), p.y(), p.z());
+  return n && impl_->tree.isNodeOccupied(n);
+}
+
+bool OccupancyOctree::is_known(const Vec3& p) const {
+  return impl_->tree.search(p.x(), p.y(), p.z()) != nullptr;
+}
+
+std::vector<Vec3> OccupancyOctree::occupied_voxels() const {
+  std::vector<Vec3> out;
+  const auto& t = impl_->tree;
+  const double res = t.getResolution();
+  for (auto it = t.begin_leafs(), end = t.end_leafs(); it != end; ++it) {
+    if (!t.isNodeOccupied(*it)) continue;
+    const double size = it.getSize();
+    const octomap::point3d c = it.getCoordinate();
+    const int n = std::max(1, static_cast<int>(std::lround(size / res)));
+    const Vec3 corner(c.x() - size / 2, c.y() - size / 2, c.z() - size / 2);
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < n; ++j)
+        for (int k = 0; k < n; ++k)
+          out.push_back(corner + Vec3((i + 0.5) * res, (j + 0.5) * res, (k + 0.5) * res));
+  }
+  return out;
+}
+
+std::size_t OccupancyOctree::leaf_count() const { return impl_->tree.getNumLeafNodes(); }
+
+OccupancyGrid OccupancyOctree::project(double z_min, double z_max) const {
+  const auto& t = impl_->tree;
+  const double res = t.getResolution();
+  double x0, y0, z0, x1, y1, z1;
+  t.getMetricMin(x0, y0, z0);
+  t.getMetricMax(x1, y1, z1);
+  if (t.size() == 0 || !(x1 > x0) || !(y1 > y0)) return OccupancyGrid();
+  // Snap the origin to the voxel lattice so grid cells and voxel columns coincide.
+  const double ox = std::floor(x0 / res + 1e-6) * res;
+  const double oy = std::floor(y0 / res + 1e-6) * res;
+  const int w = static_cast<int>(std::ceil((x1 - ox) / res - 1e-6));
+  const int h = static_cast<int>(std::ceil((y1 - oy) / res - 1e-6));
+  OccupancyGrid grid(w, h, res, Vec2(ox, oy), kUnknown);
+  for (auto it = t.begin_leafs(), end = t.end_leafs(); it != end; ++it) {
+    const double size = it.getSize();
+    const octomap::point3d c = it.getCoordinate();
+    // Float voxel bounds sit on the band limits (a floor voxel ends at 0.1 m): compare with
+    // slack so that a voxel counts only when it reaches well into the band.
+    const double eps = 0.25 * res;
+    if (c.z() + size / 2 <= z_min + eps || c.z() - size / 2 >= z_max - eps) continue;
+    const bool occ = t.isNodeOccupied(*it);
+    const int n = std::max(1, static_cast<int>(std::lround(size / res)));
+    const int cx0 = static_cast<int>(std::floor((c.x() - size / 2 - ox) / res + 0.5));
+    const int cy0 = static_cast<int>(std::floor((c.y() - size / 2 - oy) / res + 0.5));
+    for (int j = 0; j < n; ++j) {
+      for (int i = 0; i < n; ++i) {
+        const GridCell cell{cx0 + i, cy0 + j};
+        if (!grid.contains(cell)) continue;
+        if (occ)
+          grid.set(cell, kOccupied);
+        else if (grid.at(cell) == kUnknown)
+          grid.set(cell, kFree);
+      }
+    }
+  }
+  return grid;
+}
+
+void OccupancyOctree::write_binary(const std::string& path) const {
+  std::ofstream out(path, std::ios::binary);
+  if (!out) throw Error::at(path, 0, "", "cannot write the OctoMap");
+  if (!impl_->tree.writeBinaryConst(out) || !out) throw Error::at(path, 0, "", "write failed");
+}
+
+OccupancyOctree OccupancyOctree::read_binary(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error::at(path, 0, "", "cannot open the OctoMap");
+  // readBinary needs the tree's resolution from the header; it sets it itself.
+  OccupancyOctree o;
+  if (!o.impl_->tree.readBinary(in)) throw Error::at(path, 0, "", "not a binary OctoMap (.bt)");
+  o.options_.resolution = o.impl_->tree.getResolution();
+  return o;
+}
+
+}  // namespace kestrel::maps

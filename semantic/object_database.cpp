@@ -1,0 +1,405 @@
+#include "semantic/object_database.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <unordered_set>
+
+#include "core/error.hpp"
+#include "semantic/euclidean_clusters.hpp"
+
+namespace kestrel::semantic {
+namespace {
+
+struct PixelBox {
+  double x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+  double area() const { return std::max(0.0, x1 - x0) * std::max(0.0, y1 - y0); }
+};
+
+double iou(const PixelBox& a, const PixelBox& b) {
+  const double w = std::min(a.x1, b.x1) - std::max(a.x0, b.x0);
+  const double h = std::min(a.y1, b.y1) - std::max(a.y0, b.y0);
+  if (w <= 0 || h <= 0) return 0.0;
+  const double inter = w * h;
+  return inter / (a.area() + b.area() - inter);
+}
+
+PixelBox to_box(const detect::Detection& d) { return {d.x_min, d.y_min, d.x_max, d.y_max}; }
+
+double footprint(const UprightBox& b) { return std::max(b.size.x(), b.size.y()); }
+
+// Centres closer than `factor` x the larger footprint (labels are compared by the caller).
+bool same_object(const UprightBox& a, const UprightBox& b, double factor) {
+  const double dist = (a.center - b.center).head<2>().norm();
+  return dist < factor * std::max({footprint(a), footprint(b), 0.3});
+}
+
+// The image box of an object's upright box seen from T_w_c; false when behind the camera.
+bool project_box(const UprightBox& b, const SE3& T_w_c, const PinholeCamera& cam, PixelBox& out) {
+  const SE3 T_c_w = T_w_c.inverse();
+  const double c = std::cos(b.yaw), s = std::sin(b.yaw);
+  out = {1e9, 1e9, -1e9, -1e9};
+  for (int k = 0; k < 8; ++k) {
+    const double u = (k & 1 ? 0.5 : -0.5) * b.size.x(), v = (k & 2 ? 0.5 : -0.5) * b.size.y();
+    const Vec3 pw =
+        b.center + Vec3(c * u - s * v, s * u + c * v, (k & 4 ? 0.5 : -0.5) * b.size.z());
+    const Vec3 pc = T_c_w * pw;
+    if (pc.z() < 0.1) return false;
+    const auto uv = cam.project(pc);
+    if (!uv) return false;
+    out.x0 = std::min(out.x0, uv->x());
+    out.y0 = std::min(out.y0, uv->y());
+    out.x1 = std::max(out.x1, uv->x());
+    out.y1 = std::max(out.y1, uv->y());
+  }
+  out.x0 = std::max(out.x0, 0.0);
+  out.y0 = std::max(out.y0, 0.0);
+  out.x1 = std::min(out.x1, static_cast<double>(cam.width));
+  out.y1 = std::min(out.y1, static_cast<double>(cam.height));
+  return out.area() > 0;
+}
+
+std::vector<Eigen::Vector3f> thin(const std::vector<Eigen::Vector3f>& pts, double voxel,
+                                  int max_points) {
+  std::unordered_set<std::uint64_t> seen;
+  std::vector<Eigen::Vector3f> out;
+  for (const auto& p : pts) {
+    auto q = [&](float v) {
+      return static_cast<std::uint64_t>(static_cast<std::int64_t>(std::floor(v / voxel)) +
+                                        (1 << 20)) &
+             0x1FFFFF;
+    };
+    if (seen.insert(q(p.x()) | (q(p.y()) << 21) | (q(p.z()) << 42)).second) out.push_back(p);
+  }
+  if (static_cast<int>(out.size()) > max_points) {
+    std::vector<Eigen::Vector3f> kept;
+    const double step = static_cast<double>(out.size()) / max_points;
+    for (int i = 0; i < max_points; ++i) kept.push_back(out[static_cast<std::size_t>(i * step)]);
+    out.swap(kept);
+  }
+  return out;
+}
+
+}  // namespace
+
+double SemanticObject::confidence() const {
+  if (observations <= 0) return 0.0;
+  return (score_sum / observations) * (1.0 - std::exp(-observations / 3.0));
+}
+
+ObjectDatabase::ObjectDatabase(const ObjectDatabaseOptions& options) : options_(options) {}
+
+void ObjectDatabase::update_floor(const ObjectKeyframe& kf) {
+  // The floor is the lowest horizontal surface holding a good share of what the camera sees
+  // (the world is gravity-aligned, z up). A running average over keyframes smooths the noise.
+  const Image& d = *kf.depth;
+  const Mat3 R = kf.T_w_c.rotation();
+  const Vec3 t = kf.T_w_c.translation();
+  std::vector<double> z;
+  for (int v = 0; v < d.height; v += 8) {
+    const auto* row = d.row<std::uint16_t>(v);
+    for (int u = 0; u < d.width; u += 8) {
+      const double depth = row[u] / kf.depth_scale;
+      if (row[u] == 0 || depth < options_.min_depth || depth > 4.0) continue;
+      z.push_back((R * (kf.camera.unproject(Vec2(u, v)) * depth) + t).z());
+    }
+  }
+  if (z.size() < 100) return;
+  std::sort(z.begin(), z.end());
+  // Slide a 6 cm window up from the bottom; the first holding 10% of the samples is the floor.
+  const std::size_t need = z.size() / 10;
+  for (std::size_t i = 0, j = 0; i < z.size(); ++i) {
+    while (j < z.size() && z[j] < z[i] + 0.06) ++j;
+    if (j - i >= need) {
+      const double est = z[i + (j - i) / 2];
+      // Only a surface below the camera can be the floor.
+      if (est > t.z() - 0.3) return;
+      floor_z_ = (floor_z_ * floor_samples_ + est) / (floor_samples_ + 1);
+      floor_samples_ = std::min(floor_samples_ + 1, 50);
+      return;
+    }
+  }
+}
+
+bool ObjectDatabase::measure(const ObjectKeyframe& kf, const detect::Detection& det,
+                             Measurement& out) const {
+  const Image& d = *kf.depth;
+  const int x0 = std::clamp(static_cast<int>(std::floor(det.x_min)), 0, d.width);
+  const int x1 = std::clamp(static_cast<int>(std::ceil(det.x_max)), 0, d.width);
+  const int y0 = std::clamp(static_cast<int>(std::floor(det.y_min)), 0, d.height);
+  const int y1 = std::clamp(static_cast<int>(std::ceil(det.y_max)), 0, d.height);
+  if (static_cast<double>(x1 - x0) * (y1 - y0) < options_.min_box_pixels) return false;
+  // A box cut by the image border shows part of the object: its cluster would place a long
+  // object (a car) off centre and split it into fragments.
+  const double margin = options_.border_margin;
+  if (margin >= 0 && (det.x_min <= margin || det.y_min <= margin || det.x_max >= d.width - margin ||
+                      det.y_max >= d.height - margin))
+    return false;
+  const int s = std::max(1, options_.pixel_stride);
+  const Mat3 R = kf.T_w_c.rotation();
+  const Vec3 t = kf.T_w_c.translation();
+  const bool masked =
+      kf.static_mask && kf.static_mask->size() == static_cast<std::size_t>(d.width) * d.height;
+  std::vector<Eigen::Vector3f> pts;
+  std::vector<Eigen::Vector2i> px;
+  const int r = std::max(0, options_.smooth_radius);
+  for (int v = y0; v < y1; v += s) {
+    const auto* row = d.row<std::uint16_t>(v);
+    for (int u = x0; u < x1; u += s) {
+      if (row[u] == 0) continue;
+      if (masked && (*kf.static_mask)[static_cast<std::size_t>(v) * d.width + u] == 0) continue;
+      const double z0 = row[u] / kf.depth_scale;
+      if (z0 < options_.min_depth || z0 > options_.max_depth) continue;
+      // Depth noise is per pixel: averaging the neighbours on the same surface (within a few
+      // sigma) divides it by up to 2r+1 before the geometry sees it.
+      const double tol = (2.5 * options_.depth_noise_z2 * z0 * z0 + 0.02) * kf.depth_scale;
+      double sum = 0.0;
+      int n = 0;
+      for (int yy = std::max(0, v - r); yy <= std::min(d.height - 1, v + r); ++yy) {
+        const auto* nrow = d.row<std::uint16_t>(yy);
+        for (int xx = std::max(0, u - r); xx <= std::min(d.width - 1, u + r); ++xx) {
+          if (nrow[xx] == 0 || std::abs(static_cast<double>(nrow[xx]) - row[u]) > tol) continue;
+          sum += nrow[xx];
+          ++n;
+        }
+      }
+      const double z = sum / n / kf.depth_scale;
+      const Vec3 pc = kf.camera.unproject(Vec2(u, v)) * z;
+      if (has_floor()) {
+        const double zw = (R * pc + t).z();
+        if (zw < floor_z_ + floor_cut(z)) continue;
+      }
+      pts.push_back(pc.cast<float>());
+      px.emplace_back(u, v);
+    }
+  }
+  if (static_cast<int>(pts.size()) < options_.min_cluster_points) return false;
+  const auto clusters =
+      euclidean_clusters(pts, options_.cluster_tolerance, options_.min_cluster_points);
+  const PixelBox det_box = to_box(det);
+  struct Candidate {
+    const std::vector<int>* members;
+    double iou, depth;
+  };
+  std::vector<Candidate> candidates;
+  for (const auto& c : clusters) {
+    PixelBox fb{1e9, 1e9, -1e9, -1e9};
+    std::vector<float> depth;
+    depth.reserve(c.size());
+    for (int i : c) {
+      fb.x0 = std::min<double>(fb.x0, px[i].x());
+      fb.y0 = std::min<double>(fb.y0, px[i].y());
+      fb.x1 = std::max<double>(fb.x1, px[i].x() + s);
+      fb.y1 = std::max<double>(fb.y1, px[i].y() + s);
+      depth.push_back(pts[i].z());
+    }
+    const double overlap = iou(fb, det_box);
+    if (overlap < options_.min_iou) continue;
+    std::nth_element(depth.begin(), depth.begin() + depth.size() / 2, depth.end());
+    const double median = depth[depth.size() / 2];
+    double sq = 0.0;
+    for (float z : depth) sq += (z - median) * (z - median);
+    if (std::sqrt(sq / depth.size()) > options_.max_depth_rms) continue;
+    candidates.push_back({&c, overlap, median});
+  }
+  // The best footprint wins; among footprints nearly as good, the nearest cluster, because the
+  // object occludes what lies behind it in its box (a wall around a chair fills the box too).
+  double best_iou = 0.0;
+  for (const Candidate& c : candidates) best_iou = std::max(best_iou, c.iou);
+  const std::vector<int>* best = nullptr;
+  double best_depth = 1e18;
+  for (const Candidate& c : candidates)
+    if (c.iou >= best_iou - options_.iou_tie && c.depth < best_depth) {
+      best_depth = c.depth;
+      best = c.members;
+    }
+  if (!best) return false;
+  // A cluster can hold what touches the object (a table behind a tucked-in chair); an object
+  // is about as deep as it is wide, so points much farther than that from the cluster's median
+  // depth belong to something else.
+  const double width_m = (det_box.x1 - det_box.x0) * best_depth / kf.camera.fx;
+  const double keep = std::max(options_.min_depth_extent, options_.depth_extent_factor * width_m);
+  std::vector<Eigen::Vector3f> members;
+  members.reserve(best->size());
+  for (int i : *best)
+    if (std::abs(pts[i].z() - best_depth) <= keep) members.push_back(pts[i]);
+  if (static_cast<int>(members.size()) < options_.min_cluster_points) return false;
+  out.label = det.label;
+  out.score = det.score;
+  out.depth = best_depth;
+  out.points_c = thin(members, options_.point_voxel, options_.max_points_per_observation);
+  const Eigen::Matrix3f Rf = R.cast<float>();
+  const Eigen::Vector3f tf = t.cast<float>();
+  out.points_w.clear();
+  for (const auto& p : out.points_c) out.points_w.push_back(Rf * p + tf);
+  out.box = fit_upright_box(out.points_w);
+  return true;
+}
+
+std::vector<Eigen::Vector3f> ObjectDatabase::world_points(const Entry& e) const {
+  std::vector<Eigen::Vector3f> pts;
+  for (const Observation& o : e.views) {
+    const auto it = keyframe_poses_.find(o.keyframe_id);
+    if (it == keyframe_poses_.end()) continue;
+    const Eigen::Matrix3f R = it->second.rotation().cast<float>();
+    const Eigen::Vector3f t = it->second.translation().cast<float>();
+    for (const auto& p : o.points_c) pts.push_back(R * p + t);
+  }
+  return pts;
+}
+
+void ObjectDatabase::refit(Entry& e) const {
+  const auto pts = world_points(e);
+  if (pts.empty()) return;
+  UprightBox b = fit_upright_box(pts);
+  // Objects standing on the floor reach down to it: the floor band was cut from the points.
+  const double bottom = b.center.z() - b.size.z() / 2;
+  const double top = b.center.z() + b.size.z() / 2;
+  if (has_floor() && bottom < floor_z_ + floor_cut(e.mean_depth) + 0.1 && top > floor_z_) {
+    b.center.z() = (floor_z_ + top) / 2;
+    b.size.z() = top - floor_z_;
+  }
+  e.object.box = b;
+}
+
+int ObjectDatabase::merge_duplicates() {
+  int merged = 0;
+  for (bool again = true; again;) {
+    again = false;
+    for (auto a = entries_.begin(); a != entries_.end() && !again; ++a) {
+      for (auto b = std::next(a); b != entries_.end(); ++b) {
+        if (a->second.object.label != b->second.object.label) continue;
+        if (!same_object(a->second.object.box, b->second.object.box, options_.merge_factor))
+          continue;
+        Entry& keep = a->second;
+        Entry& gone = b->second;
+        for (auto& v : gone.views) keep.views.push_back(std::move(v));
+        keep.mean_depth = std::max(keep.mean_depth, gone.mean_depth);
+        keep.object.observations += gone.object.observations;
+        keep.object.score_sum += gone.object.score_sum;
+        keep.object.first_seen = std::min(keep.object.first_seen, gone.object.first_seen);
+        keep.object.last_seen = std::max(keep.object.last_seen, gone.object.last_seen);
+        refit(keep);
+        entries_.erase(b);
+        ++merged;
+        again = true;
+        break;
+      }
+    }
+  }
+  return merged;
+}
+
+ObjectUpdateStats ObjectDatabase::update(const ObjectKeyframe& kf) {
+  ObjectUpdateStats stats;
+  if (!kf.depth || kf.depth->empty() || kf.depth->type != PixelType::kU16 ||
+      kf.depth->width != kf.camera.width || kf.depth->height != kf.camera.height ||
+      !(kf.depth_scale > 0.0))
+    return stats;
+  keyframe_poses_[kf.keyframe_id] = kf.T_w_c;
+  update_floor(kf);
+
+  // A static-class object caught moving leaves the database; it comes back where it stops.
+  for (const detect::Detection& m : kf.moving_boxes) {
+    for (auto it = entries_.begin(); it != entries_.end();) {
+      PixelBox pb;
+      if (it->second.object.label == m.label &&
+          project_box(it->second.object.box, kf.T_w_c, kf.camera, pb) &&
+          iou(pb, to_box(m)) > options_.moving_iou) {
+        it = entries_.erase(it);
+        ++stats.removed_moving;
+      } else {
+        ++it;
+      }
+    }
+  }
+
+  for (const detect::Detection& det : kf.static_boxes) {
+    ++stats.boxes;
+    Measurement m;
+    if (!measure(kf, det, m)) continue;
+    ++stats.measured;
+    Entry* match = nullptr;
+    double best = 1e18;
+    for (auto& [id, e] : entries_) {
+      if (e.object.label != m.label) continue;
+      const double dist = (e.object.box.center - m.box.center).head<2>().norm();
+      if (same_object(e.object.box, m.box, options_.associate_factor) && dist < best) {
+        best = dist;
+        match = &e;
+      }
+    }
+    if (!match) {
+      Entry e;
+      e.object.id = next_id_++;
+      e.object.label = m.label;
+      e.object.first_seen = kf.stamp;
+      match = &entries_.emplace(e.object.id, std::move(e)).first->second;
+      ++stats.created;
+    }
+    SemanticObject& o = match->object;
+    ++o.observations;
+    o.score_sum += m.score;
+    o.first_seen = std::min(o.first_seen, kf.stamp);
+    o.last_seen = std::max(o.last_seen, kf.stamp);
+    match->mean_depth += (m.depth - match->mean_depth) / o.observations;
+    match->views.push_back({kf.keyframe_id, std::move(m.points_c)});
+    if (static_cast<int>(match->views.size()) > options_.max_observations_kept)
+      match->views.erase(match->views.begin());
+    refit(*match);
+  }
+  stats.merged = merge_duplicates();
+  return stats;
+}
+
+void ObjectDatabase::reanchor(std::int64_t keyframe_id, const SE3& T_w_c) {
+  auto it = keyframe_poses_.find(keyframe_id);
+  if (it == keyframe_poses_.end()) return;
+  it->second = T_w_c;
+  for (auto& [id, e] : entries_) {
+    const bool uses = std::any_of(e.views.begin(), e.views.end(), [&](const Observation& o) {
+      return o.keyframe_id == keyframe_id;
+    });
+    if (uses) refit(e);
+  }
+}
+
+std::vector<SemanticObject> ObjectDatabase::all_objects() const {
+  std::vector<SemanticObject> out;
+  for (const auto& [id, e] : entries_) out.push_back(e.object);
+  return out;
+}
+
+std::vector<SemanticObject> ObjectDatabase::objects() const {
+  std::vector<SemanticObject> out;
+  for (const auto& [id, e] : entries_)
+    if (e.object.observations >= options_.min_observations) out.push_back(e.object);
+  return out;
+}
+
+std::vector<io::SequenceObject> ObjectDatabase::to_sequence_objects() const {
+  std::vector<io::SequenceObject> out;
+  for (const SemanticObject& o : objects()) {
+    io::SequenceObject s;
+    s.id = o.id;
+    s.label = o.label;
+    s.center = o.box.center;
+    s.size = o.box.size;
+    s.yaw = o.box.yaw;
+    s.observations = o.observations;
+    s.first_seen = to_seconds(o.first_seen);
+    s.last_seen = to_seconds(o.last_seen);
+    out.push_back(s);
+  }
+  return out;
+}
+
+void ObjectDatabase::write_outputs(const std::string& dir) const {
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) throw Error::at(dir, 0, "", "cannot create the output folder: " + ec.message());
+  io::write_objects_json((std::filesystem::path(dir) / "objects.json").string(),
+                         to_sequence_objects());
+}
+
+}  // namespace kestrel::semantic

@@ -1,0 +1,140 @@
+#pragma once
+// The database of static objects (DESIGN.md semantic/), updated once per keyframe from the
+// mapping thread: the depth inside every static-class detection box is split into Euclidean
+// clusters; the nearest cluster whose image footprint overlaps the box (IoU) and whose depth is
+// consistent becomes a measurement; measurements of one label close together fuse into one
+// object. Points stay in their keyframe's camera frame, so a corrected keyframe pose
+// (reanchor) moves the objects with the map. No threads here.
+#include <cstdint>
+#include <map>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "core/camera.hpp"
+#include "core/image.hpp"
+#include "core/se3.hpp"
+#include "core/timestamp.hpp"
+#include "detect/detection.hpp"
+#include "io/kestrel_sequence.hpp"
+#include "semantic/object_geometry.hpp"
+
+namespace kestrel::semantic {
+
+struct ObjectDatabaseOptions {
+  int pixel_stride = 2;             // depth pixels sampled inside a box
+  double min_depth = 0.3;           // metres
+  double max_depth = 8.0;           // metres
+  double depth_noise_z2 = 0.003;    // the sensor's depth sigma = this x depth^2 (D455-like)
+  int smooth_radius = 2;            // depth averaged over (2r+1)^2 neighbours on one surface
+  float cluster_tolerance = 0.06f;  // metres between surfaces of one cluster
+  int min_cluster_points = 30;
+  double min_iou = 0.5;               // cluster footprint vs detection box
+  double iou_tie = 0.15;              // footprints this close in IoU: the nearer cluster wins
+  double max_depth_rms = 0.6;         // metres, spread of a cluster's depth about its median
+  double depth_extent_factor = 0.75;  // keep cluster points within this x box width (metres)
+  double min_depth_extent = 0.25;     // ... or this, of the cluster's median depth
+  double min_box_pixels = 400;        // smaller boxes are too far or too cut to measure
+  double border_margin = -1.0;        // pixels; >= 0: boxes reaching the border are not measured
+  double point_voxel = 0.03;          // metres, an observation's points are thinned to this
+  int max_points_per_observation = 600;
+  int max_observations_kept = 60;  // per object, the latest ones
+  double floor_margin = 0.04;      // metres above the floor estimate that count as floor
+  double floor_noise = 0.006;      // plus this times depth^2 (depth noise grows with z^2)
+  double associate_factor = 0.75;  // same label, centres closer than this x the larger size
+  double merge_factor = 0.75;      // same rule between two objects
+  int min_observations = 3;        // fewer: a mislabel or a passing glimpse, not reported
+  double moving_iou = 0.3;         // a moving box this close to an object's projection removes it
+};
+
+struct ObjectKeyframe {
+  std::int64_t keyframe_id = 0;
+  SE3 T_w_c;
+  Timestamp stamp = 0;
+  const Image* depth = nullptr;  // 16-bit
+  double depth_scale = 5000.0;
+  PinholeCamera camera;
+  // Per pixel (row-major): non-zero = static. Null: all static. Mover pixels never join a cluster.
+  const std::vector<std::uint8_t>* static_mask = nullptr;
+  std::vector<detect::Detection> static_boxes;  // static classes (chair, tv, ...)
+  std::vector<detect::Detection> moving_boxes;  // boxes the dynamic filter saw moving
+};
+
+struct SemanticObject {
+  int id = 0;
+  std::string label;
+  UprightBox box;
+  int observations = 0;
+  double score_sum = 0.0;
+  Timestamp first_seen = 0;
+  Timestamp last_seen = 0;
+  double confidence() const;
+};
+
+struct ObjectUpdateStats {
+  int boxes = 0;     // static boxes considered
+  int measured = 0;  // boxes that gave a cluster
+  int created = 0;
+  int merged = 0;
+  int removed_moving = 0;
+};
+
+class ObjectDatabase {
+ public:
+  explicit ObjectDatabase(const ObjectDatabaseOptions& options = {});
+
+  ObjectUpdateStats update(const ObjectKeyframe& kf);
+  // A keyframe's pose changed (loop closure, BA): objects seen from it move with it.
+  void reanchor(std::int64_t keyframe_id, const SE3& T_w_c);
+
+  // Objects seen often enough to report (options.min_observations).
+  std::vector<SemanticObject> objects() const;
+  // Every object held, rare ones included.
+  std::vector<SemanticObject> all_objects() const;
+  std::vector<io::SequenceObject> to_sequence_objects() const;
+  // DIR/objects.json (DESIGN.md objects contract).
+  void write_outputs(const std::string& dir) const;
+
+  double floor_height() const { return floor_z_; }
+  bool has_floor() const { return floor_samples_ > 0; }
+
+ private:
+  struct Observation {
+    std::int64_t keyframe_id = 0;
+    std::vector<Eigen::Vector3f> points_c;  // camera frame of that keyframe
+  };
+  struct Entry {
+    SemanticObject object;
+    std::vector<Observation> views;
+    double mean_depth = 0.0;  // of its measurements, for the floor cut
+  };
+  struct Measurement {
+    std::string label;
+    float score = 0.0f;
+    std::vector<Eigen::Vector3f> points_c;
+    std::vector<Eigen::Vector3f> points_w;
+    UprightBox box;
+    double depth = 0.0;  // median camera depth of its cluster
+  };
+
+  void update_floor(const ObjectKeyframe& kf);
+  // Height above the floor estimate below which a point seen at `depth` counts as floor.
+  double floor_cut(double depth) const {
+    return options_.floor_margin + options_.floor_noise * depth * depth;
+  }
+  bool measure(const ObjectKeyframe& kf, const detect::Detection& det, Measurement& out) const;
+  void refit(Entry& e) const;
+  int merge_duplicates();
+  std::vector<Eigen::Vector3f> world_points(const Entry& e) const;
+
+  ObjectDatabaseOptions options_;
+  std::map<int, Entry> entries_;
+  std::unordered_map<std::int64_t, SE3> keyframe_poses_;
+  int next_id_ = 1;
+  double floor_z_ = 0.0;
+  int floor_samples_ = 0;
+};
+
+}  // namespace kestrel::semantic

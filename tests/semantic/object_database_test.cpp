@@ -1,0 +1,200 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+#include "semantic/object_database.hpp"
+#include "tests/test_paths.hpp"
+
+using namespace kestrel;
+using namespace kestrel::semantic;
+
+namespace {
+
+PinholeCamera camera() {
+  PinholeCamera c;
+  c.width = 320;
+  c.height = 240;
+  c.fx = c.fy = 262.5;
+  c.cx = 159.5;
+  c.cy = 119.5;
+  return c;
+}
+
+// Camera at eye looking at `target` (world z up), OpenCV camera axes.
+SE3 look_at(const Vec3& eye, const Vec3& target) {
+  const Vec3 z = (target - eye).normalized();
+  const Vec3 x = z.cross(Vec3::UnitZ()).normalized();
+  const Vec3 y = z.cross(x);
+  Mat3 R;
+  R.col(0) = x;
+  R.col(1) = y;
+  R.col(2) = z;
+  return SE3(SO3(R), eye);
+}
+
+struct AxisBox {
+  Vec3 lo, hi;
+};
+
+// Scene: floor z = 0, wall x = 5, and axis-aligned boxes. Returns depth (5000 / m).
+Image render(const PinholeCamera& cam, const SE3& T_w_c, const std::vector<AxisBox>& boxes) {
+  Image d = Image::allocate(cam.width, cam.height, 1, PixelType::kU16);
+  const Vec3 o = T_w_c.translation();
+  for (int v = 0; v < cam.height; ++v)
+    for (int u = 0; u < cam.width; ++u) {
+      const Vec3 ray_c = cam.unproject(Vec2(u, v));  // z = 1
+      const Vec3 r = T_w_c.rotation() * ray_c;
+      double best = std::numeric_limits<double>::infinity();
+      if (r.z() < 0) best = std::min(best, -o.z() / r.z());
+      if (r.x() > 0) best = std::min(best, (5.0 - o.x()) / r.x());
+      for (const AxisBox& b : boxes) {
+        double t0 = 0, t1 = 1e9;
+        for (int k = 0; k < 3; ++k) {
+          if (std::abs(r[k]) < 1e-12) {
+            if (o[k] < b.lo[k] || o[k] > b.hi[k]) t0 = 1e18;
+            continue;
+          }
+          double a = (b.lo[k] - o[k]) / r[k], c = (b.hi[k] - o[k]) / r[k];
+          if (a > c) std::swap(a, c);
+          t0 = std::max(t0, a);
+          t1 = std::min(t1, c);
+        }
+        if (t0 <= t1 && t0 > 0) best = std::min(best, t0);
+      }
+      // With ray z_c = 1 the ray parameter is the camera depth.
+      d.row<std::uint16_t>(v)[u] = std::isfinite(best) && best < 13.0
+                                       ? static_cast<std::uint16_t>(std::lround(best * 5000))
+                                       : 0;
+    }
+  return d;
+}
+
+detect::Detection box_of(const PinholeCamera& cam, const SE3& T_w_c, const AxisBox& b,
+                         const std::string& label) {
+  detect::Detection d;
+  d.label = label;
+  d.score = 0.9f;
+  d.x_min = d.y_min = 1e9f;
+  d.x_max = d.y_max = -1e9f;
+  for (int k = 0; k < 8; ++k) {
+    const Vec3 p((k & 1 ? b.hi : b.lo).x(), (k & 2 ? b.hi : b.lo).y(), (k & 4 ? b.hi : b.lo).z());
+    const auto uv = cam.project(T_w_c.inverse() * p);
+    d.x_min = std::min(d.x_min, static_cast<float>(uv->x()));
+    d.y_min = std::min(d.y_min, static_cast<float>(uv->y()));
+    d.x_max = std::max(d.x_max, static_cast<float>(uv->x()));
+    d.y_max = std::max(d.y_max, static_cast<float>(uv->y()));
+  }
+  d.x_min = std::max(d.x_min, 0.0f);
+  d.y_min = std::max(d.y_min, 0.0f);
+  d.x_max = std::min(d.x_max, static_cast<float>(cam.width));
+  d.y_max = std::min(d.y_max, static_cast<float>(cam.height));
+  return d;
+}
+
+const AxisBox kChair{Vec3(2.0, -0.3, 0.0), Vec3(2.5, 0.3, 0.9)};
+const AxisBox kChair2{Vec3(2.5, 1.5, 0.0), Vec3(3.0, 2.1, 0.9)};
+
+// Views from a short arc in front of the boxes; keyframe ids 0..n-1.
+void observe(ObjectDatabase& db, int n, const std::vector<AxisBox>& boxes,
+             const std::vector<std::string>& labels, std::vector<SE3>* poses = nullptr) {
+  const PinholeCamera cam = camera();
+  for (int k = 0; k < n; ++k) {
+    const double a = -0.5 + k * (1.0 / std::max(1, n - 1));
+    const SE3 T =
+        look_at(Vec3(2.25 - 1.8 * std::cos(a), 0.6 + 1.8 * std::sin(a), 1.3), Vec3(2.5, 0.6, 0.4));
+    const Image depth = render(cam, T, boxes);
+    ObjectKeyframe kf;
+    kf.keyframe_id = k;
+    kf.T_w_c = T;
+    kf.stamp = from_seconds(k);
+    kf.depth = &depth;
+    kf.camera = cam;
+    for (std::size_t i = 0; i < boxes.size(); ++i)
+      kf.static_boxes.push_back(box_of(cam, T, boxes[i], labels[i]));
+    db.update(kf);
+    if (poses) poses->push_back(T);
+  }
+}
+
+}  // namespace
+
+TEST(ObjectDatabase, FusesViewsIntoOneObjectPerBox) {
+  ObjectDatabase db;
+  observe(db, 6, {kChair, kChair2}, {"chair", "chair"});
+  EXPECT_NEAR(db.floor_height(), 0.0, 0.02);
+  const auto objs = db.objects();
+  ASSERT_EQ(objs.size(), 2u);
+  for (const SemanticObject& o : objs) {
+    const AxisBox& truth = o.box.center.y() < 0.75 ? kChair : kChair2;
+    const Vec3 c = (truth.lo + truth.hi) / 2;
+    EXPECT_LT((o.box.center - c).norm(), 0.06) << o.box.center.transpose();
+    EXPECT_NEAR(o.box.size.z(), 0.9, 0.06);
+    EXPECT_NEAR(std::max(o.box.size.x(), o.box.size.y()), 0.6, 0.08);
+    EXPECT_EQ(o.label, "chair");
+    EXPECT_EQ(o.observations, 6);
+    EXPECT_EQ(o.first_seen, from_seconds(0));
+    EXPECT_EQ(o.last_seen, from_seconds(5));
+    EXPECT_GT(o.confidence(), 0.7);
+  }
+}
+
+TEST(ObjectDatabase, ReanchoringKeyframesMovesTheirObjects) {
+  ObjectDatabase db;
+  std::vector<SE3> poses;
+  observe(db, 4, {kChair}, {"chair"}, &poses);
+  const Vec3 before = db.objects().at(0).box.center;
+  const SE3 shift(SO3(), Vec3(0.0, 1.0, 0.0));
+  for (int k = 0; k < 4; ++k) db.reanchor(k, shift * poses[static_cast<std::size_t>(k)]);
+  const Vec3 after = db.objects().at(0).box.center;
+  EXPECT_NEAR(after.y() - before.y(), 1.0, 1e-4);
+  EXPECT_NEAR(after.x(), before.x(), 1e-4);
+}
+
+TEST(ObjectDatabase, RareLabelsAreNotReported) {
+  ObjectDatabase db;
+  observe(db, 2, {kChair}, {"couch"});
+  EXPECT_TRUE(db.objects().empty());
+  ASSERT_EQ(db.all_objects().size(), 1u);
+  EXPECT_EQ(db.all_objects()[0].observations, 2);
+}
+
+TEST(ObjectDatabase, AChairSeenMovingLeavesTheDatabase) {
+  ObjectDatabase db;
+  observe(db, 4, {kChair}, {"chair"});
+  ASSERT_EQ(db.objects().size(), 1u);
+  const PinholeCamera cam = camera();
+  const SE3 T = look_at(Vec3(0.45, 0.6, 1.3), Vec3(2.5, 0.6, 0.4));
+  const Image depth = render(cam, T, {});
+  ObjectKeyframe kf;
+  kf.keyframe_id = 10;
+  kf.T_w_c = T;
+  kf.depth = &depth;
+  kf.camera = cam;
+  kf.moving_boxes.push_back(box_of(cam, T, kChair, "chair"));
+  EXPECT_EQ(db.update(kf).removed_moving, 1);
+  EXPECT_TRUE(db.all_objects().empty());
+}
+
+TEST(ObjectDatabase, WritesObjectsJson) {
+  ObjectDatabase db;
+  observe(db, 3, {kChair}, {"chair"});
+  const auto dir = test::temp_dir("semantic-out");
+  db.write_outputs(dir.string());
+  const auto back = io::read_objects((dir / "objects.json").string());
+  ASSERT_EQ(back.size(), 1u);
+  EXPECT_EQ(back[0].label, "chair");
+  EXPECT_EQ(back[0].observations, 3);
+  EXPECT_NEAR(back[0].center.x(), db.objects()[0].box.center.x(), 1e-6);
+}
+
+TEST(ObjectDatabase, BadInputIsIgnoredNotThrown) {
+  ObjectDatabase db;
+  ObjectKeyframe kf;
+  kf.camera = camera();
+  EXPECT_EQ(db.update(kf).boxes, 0);
+  Image wrong = Image::allocate(10, 10, 1, PixelType::kU16);
+  kf.depth = &wrong;
+  kf.static_boxes.push_back({});
+  EXPECT_EQ(db.update(kf).boxes, 0);
+}
