@@ -3,11 +3,16 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 
 #include "apps/commands.hpp"
 #include "core/error.hpp"
+#include "eval/report/run_report.hpp"
 #include "io/dataset.hpp"
+#include "io/kestrel_sequence.hpp"
+#include "pipeline/progress.hpp"
 #include "pipeline/run_job.hpp"
+#include "sim/builtin_scenarios.hpp"
 #include "sim/scenario.hpp"
 #include "sim/sequence_recorder.hpp"
 #include "sim/simulator.hpp"
@@ -32,6 +37,98 @@ std::string dataset_dir_of(const std::string& spec) {
   return std::filesystem::exists(dir + "/boxes.csv") ? dir : "";
 }
 
+// The command line exactly as typed (CLI11 does not keep argv; Linux does).
+std::string command_line() {
+  std::ifstream f("/proc/self/cmdline", std::ios::binary);
+  std::string all((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  std::string out;
+  std::string arg;
+  for (char c : all) {
+    if (c != '\0') {
+      arg += c;
+      continue;
+    }
+    const bool quote = arg.empty() || arg.find_first_of(" \t'\"$") != std::string::npos;
+    out += (out.empty() ? "" : " ") + (quote ? "'" + arg + "'" : arg);
+    arg.clear();
+  }
+  return out;
+}
+
+std::string read_text(const std::string& path) {
+  std::ifstream f(path);
+  std::stringstream ss;
+  ss << f.rdbuf();
+  return ss.str();
+}
+
+// One run in the report's terms.
+kestrel::report::RunRecord record_of(const std::string& name, const std::string& description,
+                                     const RunSummary& s) {
+  kestrel::report::RunRecord r;
+  r.name = name;
+  r.description = description;
+  r.estimate = s.trajectory;
+  r.frames = s.frames, r.tracked = s.tracked, r.lost = s.lost;
+  r.has_removal = s.has_truth_masks;
+  r.dynamic_total = s.removal.dynamic_total, r.dynamic_removed = s.removal.dynamic_removed;
+  r.static_total = s.removal.static_total, r.static_kept = s.removal.static_kept;
+  r.tracking_ms_median = s.tracking_ms_median;
+  r.detector_ms_median = s.detector_ms_median;
+  r.wall_seconds = s.wall_seconds;
+  for (const auto& [stage, l] : s.stages)
+    r.stages.push_back({stage, l.count, l.p50_ms, l.p90_ms, l.max_ms});
+  r.counters = s.counters;
+  return r;
+}
+
+// The kept frames with the detector's boxes, every feature (static or rejected as dynamic) and
+// the ground-truth boxes of movers at their stamps.
+std::vector<kestrel::report::StripFrame> strip_of(const std::string& run_name, const RunSummary& s,
+                                                  const std::string& dataset_dir) {
+  std::vector<kestrel::io::SequenceBox> boxes;
+  if (!dataset_dir.empty()) boxes = kestrel::io::read_boxes(dataset_dir + "/boxes.csv");
+  // Stamps shown from the start of the run, as on the report's time axes.
+  double t0 = 0.0;
+  if (s.ground_truth && !s.ground_truth->empty()) {
+    t0 = s.ground_truth->stamps.front();
+  } else if (!s.trajectory.empty()) {
+    t0 = s.trajectory.stamps.front();
+  }
+  std::vector<kestrel::report::StripFrame> out;
+  for (const auto& k : s.strip) {
+    kestrel::report::StripFrame f;
+    f.image = k.frame.color;
+    char caption[160];
+    std::snprintf(caption, sizeof caption,
+                  "%s · t = %.2f s · %s · %d features, %d rejected as dynamic, %d inliers",
+                  run_name.c_str(), kestrel::to_seconds(k.frame.t) - t0,
+                  kestrel::tracking::to_string(k.report.state), k.report.features,
+                  k.report.dynamic_features, k.report.inliers);
+    f.caption = caption;
+    for (std::size_t i = 0; i < k.report.feature_px.size(); ++i) {
+      f.points.push_back({k.report.feature_px[i].x(), k.report.feature_px[i].y(),
+                          k.report.feature_dynamic[i] != 0});
+    }
+    for (const auto& b : k.report.boxes) {
+      f.boxes.push_back({b.x_min, b.y_min, b.x_max, b.y_max, "detected", true});
+    }
+    // Movers and people only: the static furniture's boxes would hide the picture.
+    for (const auto& b : boxes) {
+      if (b.t == k.frame.t && (b.moving || b.label == "person"))
+        f.boxes.push_back({b.x_min, b.y_min, b.x_max, b.y_max, b.label, b.moving});
+    }
+    out.push_back(std::move(f));
+  }
+  return out;
+}
+
+std::string fmt_1(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.1f", v);
+  return buf;
+}
+
 void print_summary(const char* name, const RunSummary& s) {
   std::printf("%s: %zu frames, %zu tracked, %zu lost", name, s.frames, s.tracked, s.lost);
   if (s.ape_rmse_m >= 0) std::printf(", APE RMSE %.4f m (%zu pairs)", s.ape_rmse_m, s.ape_pairs);
@@ -52,7 +149,8 @@ void setup_run(CLI::App& app) {
   cmd->add_option("--dataset", flags->dataset,
                   "tum:DIR | euroc:DIR | tumvi:DIR | openloris:DIR | kestrel:DIR (or a DIR)")
       ->required();
-  cmd->add_option("--out", flags->out, "output folder (trajectory.txt, timing.json, summary.json)")
+  cmd->add_option("--out", flags->out,
+                  "output folder (trajectory.txt, timing.json, summary.json, report.html)")
       ->required();
   cmd->add_option("--config", flags->config, "calibration / settings YAML")
       ->check(CLI::ExistingFile);
@@ -73,8 +171,28 @@ void setup_run(CLI::App& app) {
     opt.dynamic = *kestrel::dynamic::filter_mode_from_string(flags->dynamic);
     opt.sequential = !flags->realtime;
     opt.out_dir = flags->out;
-    print_summary("run", kestrel::pipeline::run_sequence(*source, opt));
-    std::printf("outputs in %s\n", flags->out.c_str());
+    const RunSummary summary = kestrel::pipeline::run_sequence(*source, opt);
+    print_summary("run", summary);
+    kestrel::report::ReportInput report;
+    report.command_line = command_line();
+    if (!flags->config.empty()) {
+      report.config_text = "# " + flags->config + "\n" + read_text(flags->config);
+    } else if (!opt.dataset_dir.empty() &&
+               std::filesystem::exists(opt.dataset_dir + "/calib.yaml")) {
+      report.config_text = "# " + opt.dataset_dir + "/calib.yaml (no --config)\n" +
+                           read_text(opt.dataset_dir + "/calib.yaml");
+    } else {
+      report.config_text = "(the dataset's own calibration; no --config)";
+    }
+    report.version = KESTREL_VERSION;
+    report.dataset = source->describe();
+    report.ground_truth = summary.ground_truth;
+    report.runs.push_back(record_of(
+        "run", "detector " + flags->detector + ", dynamic rejection " + flags->dynamic, summary));
+    report.frames = strip_of("run", summary, opt.dataset_dir);
+    const std::string report_path = flags->out + "/report.html";
+    kestrel::report::write_report(report, report_path);
+    std::printf("outputs in %s\nreport: %s\n", flags->out.c_str(), report_path.c_str());
   });
 }
 
@@ -108,7 +226,10 @@ void setup_demo(CLI::App& app) {
     std::printf("kestrel demo: rendering '%s' (%d frames) into %s\n", flags->scenario.c_str(),
                 sim.frame_count(), seq.c_str());
     fs::remove_all(seq);
-    const auto rec = kestrel::sim::record_sequence(sim, seq);
+    kestrel::pipeline::ProgressBar bar(static_cast<std::size_t>(sim.frame_count()), "frames");
+    const auto rec = kestrel::sim::record_sequence(sim, seq, [&bar](int done, int) {
+      bar.update(static_cast<std::size_t>(done), "rendering");
+    });
     std::printf("  rendered %d frames at %.1f FPS; movers cover >= 25%% of the image in %d\n",
                 rec.frames, rec.frames / std::max(rec.render_seconds, 1e-9),
                 rec.frames_with_quarter_movers);
@@ -128,21 +249,45 @@ void setup_demo(CLI::App& app) {
       opt.out_dir = flags->out + "/" + names[i];
       results[i] = kestrel::pipeline::run_sequence(*source, opt);
     }
+    kestrel::report::ReportInput report;
+    report.title = "Kestrel demo: dynamic rejection on against off";
+    report.command_line = command_line();
+    if (const char* yaml = kestrel::sim::builtin_scenario(flags->scenario)) {
+      report.config_text = "# built-in scenario '" + flags->scenario + "', duration " +
+                           std::to_string(flags->duration) + " s\n" + yaml;
+    } else {
+      report.config_text = "# " + flags->scenario + "\n" + read_text(flags->scenario);
+    }
+    report.version = KESTREL_VERSION;
+    report.dataset = "kestrel:" + seq;
+    report.ground_truth = results[0].ground_truth;
+    report.notes.push_back("The same rendered scene is run twice: with the " + flags->detector +
+                           " detector and hybrid dynamic rejection, and with rejection off.");
+    for (int i = 0; i < 2; ++i) {
+      report.runs.push_back(record_of(names[i],
+                                      std::string("detector ") +
+                                          (i == 0 ? flags->detector : "none") + ", rejection " +
+                                          names[i],
+                                      results[i]));
+    }
+    report.frames = strip_of(names[0], results[0], seq);
+    const std::string report_path = flags->out + "/report.html";
+    kestrel::report::write_report(report, report_path);
     std::printf(
         "\n| rejection | APE RMSE (m) | dynamic removed | static kept | tracking FPS | "
         "detector FPS | lost |\n|---|---|---|---|---|---|---|\n");
     for (int i = 0; i < 2; ++i) {
       const RunSummary& s = results[i];
-      std::printf("| %s | %.4f | %.1f%% | %.1f%% | %.0f | %s | %zu |\n", names[i], s.ape_rmse_m,
+      // One decimal everywhere, so the printed figures can be checked against summary.json.
+      std::printf("| %s | %.4f | %.1f%% | %.1f%% | %.1f | %s | %zu |\n", names[i], s.ape_rmse_m,
                   s.removal.removed_percent(), s.removal.kept_percent(),
                   s.tracking_ms_median > 0 ? 1000.0 / s.tracking_ms_median : 0.0,
-                  s.detector_ms_median > 0
-                      ? std::to_string(static_cast<int>(1000.0 / s.detector_ms_median)).c_str()
-                      : "-",
+                  s.detector_ms_median > 0 ? fmt_1(1000.0 / s.detector_ms_median).c_str() : "-",
                   s.lost);
     }
     std::printf("\noutputs in %s/ (hybrid/, off/: trajectory.txt, timing.json, summary.json)\n",
                 flags->out.c_str());
+    std::printf("report: %s\n", report_path.c_str());
   });
 }
 

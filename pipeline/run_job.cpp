@@ -1,13 +1,12 @@
 #include "pipeline/run_job.hpp"
 
-#include <unistd.h>
-
 #include <nlohmann/json.hpp>
 
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <mutex>
 
 #include "core/error.hpp"
 #include "detect/oracle_detector.hpp"
@@ -15,6 +14,7 @@
 #include "eval/trajectory_evaluation.hpp"
 #include "io/kestrel_sequence.hpp"
 #include "io/trajectory_io.hpp"
+#include "pipeline/progress.hpp"
 #include "pipeline/system.hpp"
 
 namespace kestrel::pipeline {
@@ -27,50 +27,37 @@ io::PoseSeries to_series(const Trajectory& t) {
   return s;
 }
 
-// A one-line progress display: a bar with rate and time left on a terminal, plain lines
-// every 10% otherwise (CI logs).
-class Progress {
+// Shows progress and keeps the reports of the frames chosen for the report's strip.
+class RunObserver : public Observer {
  public:
-  Progress(std::size_t total, bool enabled) : total_(total), enabled_(enabled), tty_(isatty(1)) {}
-  void update(std::size_t done, const char* state) {
-    if (!enabled_ || total_ == 0) return;
-    const double secs =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
-    const double fps = secs > 0 ? done / secs : 0.0;
-    const double left = fps > 0 ? (total_ - done) / fps : 0.0;
-    if (tty_) {
-      const int width = 30;
-      const int filled = static_cast<int>(width * done / total_);
-      std::printf("\r  [%.*s%*s] %zu/%zu %5.1f FPS %4.0fs left  %-12s", filled,
-                  "##############################", width - filled, "", done, total_, fps, left,
-                  state);
-      if (done == total_) std::printf("\n");
-      std::fflush(stdout);
-    } else if (done * 10 / total_ != last_decile_ || done == total_) {
-      last_decile_ = done * 10 / total_;
-      std::printf("  %zu/%zu frames, %.1f FPS, %s\n", done, total_, fps, state);
-      std::fflush(stdout);
+  RunObserver(ProgressBar& p, std::vector<KeptFrame>& strip) : progress_(p), strip_(strip) {}
+  // Called from the feeding thread, before the frame is fed.
+  void keep(std::size_t slot, const RgbdFrame& f) {
+    std::lock_guard lock(mutex_);
+    strip_[slot].frame = f;
+  }
+  // Called from the tracking thread.
+  void on_frame(const FrameReport& r) override {
+    progress_.update(++done_, tracking::to_string(r.state));
+    std::lock_guard lock(mutex_);
+    for (KeptFrame& k : strip_) {
+      if (!k.frame.color.empty() && k.frame.t == r.t) k.report = r;
     }
   }
 
  private:
-  std::size_t total_;
-  bool enabled_, tty_;
-  std::size_t last_decile_ = 0;
-  std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
-};
-
-class ProgressObserver : public Observer {
- public:
-  explicit ProgressObserver(Progress& p) : progress_(p) {}
-  void on_frame(const FrameReport& r) override {
-    progress_.update(++done_, tracking::to_string(r.state));
-  }
-
- private:
-  Progress& progress_;
+  ProgressBar& progress_;
+  std::vector<KeptFrame>& strip_;
+  std::mutex mutex_;
   std::size_t done_ = 0;
 };
+
+// Indices of n frames spread evenly over total, away from the very first frames.
+std::vector<std::size_t> strip_indices(std::size_t total, std::size_t n) {
+  std::vector<std::size_t> out;
+  for (std::size_t i = 0; i < n && total > 0; ++i) out.push_back((2 * i + 1) * total / (2 * n));
+  return out;
+}
 
 }  // namespace
 
@@ -85,7 +72,7 @@ RunSummary run_sequence(io::MeasurementSource& source, const RunOptions& options
       throw Error("--detector oracle needs a Kestrel sequence with boxes.csv");
     }
     detector = std::make_unique<detect::OracleDetector>(
-        io::read_boxes(options.dataset_dir + "/boxes.csv"));
+        io::read_boxes(options.dataset_dir + "/boxes.csv"), options.oracle);
   } else if (options.detector != "none") {
     throw Error("unknown detector '" + options.detector + "' (yolo, oracle or none)");
   }
@@ -100,12 +87,29 @@ RunSummary run_sequence(io::MeasurementSource& source, const RunOptions& options
     const std::string dir = options.dataset_dir;
     system.set_truth_masks([dir](Timestamp t) { return io::read_dynamic_mask(dir, t); });
   }
-  Progress progress(source.frame_count(), options.progress);
-  ProgressObserver progress_observer(progress);
-  system.add_observer(&progress_observer);
+  if (options.progress && !options.progress_label.empty()) {
+    std::printf("%s\n", options.progress_label.c_str());
+  }
+  ProgressBar progress(source.frame_count(), "frames", options.progress);
+  const std::vector<std::size_t> keep = strip_indices(source.frame_count(), options.strip_frames);
+  summary.strip.resize(keep.size());
+  RunObserver observer(progress, summary.strip);
+  system.add_observer(&observer);
 
   const auto t0 = std::chrono::steady_clock::now();
+  std::size_t next_keep = 0;
   while (auto m = source.next()) {
+    if (next_keep < keep.size() && summary.frames == keep[next_keep]) {
+      if (const auto* f = std::get_if<RgbdFrame>(&*m)) {
+        observer.keep(next_keep++, *f);
+      } else if (const auto* st = std::get_if<StereoFrame>(&*m)) {
+        RgbdFrame left;  // the report shows the left image of a stereo pair
+        left.t = st->t;
+        left.color = st->left;
+        left.source = st->source;
+        observer.keep(next_keep++, left);
+      }
+    }
     system.feed(*m);
     if (!std::holds_alternative<ImuSample>(*m)) ++summary.frames;
   }
@@ -127,8 +131,14 @@ RunSummary run_sequence(io::MeasurementSource& source, const RunOptions& options
     summary.detector_ms_median = it->second.p50_ms;
   }
   summary.timing_json = system.stats().to_json();
+  summary.stages = stages;
+  summary.counters = system.stats().counters();
+  summary.trajectory = traj;
+  // Frames never read (a short source) leave empty slots.
+  std::erase_if(summary.strip, [](const KeptFrame& k) { return k.frame.color.empty(); });
 
-  if (const auto gt = source.ground_truth(); gt && !gt->empty() && traj.size() >= 3) {
+  if (auto gt = source.ground_truth(); gt && !gt->empty()) summary.ground_truth = std::move(gt);
+  if (const auto& gt = summary.ground_truth; gt && traj.size() >= 3) {
     eval::ApeOptions ape;
     ape.association.method = eval::AssociationMethod::kEvo;
     ape.association.max_diff = 0.01;
@@ -141,6 +151,7 @@ RunSummary run_sequence(io::MeasurementSource& source, const RunOptions& options
   if (!options.out_dir.empty()) {
     std::filesystem::create_directories(options.out_dir);
     io::write_tum(options.out_dir + "/trajectory.txt", traj);
+    system.write_map_outputs(options.out_dir);
     std::ofstream(options.out_dir + "/timing.json") << summary.timing_json << "\n";
     std::ofstream(options.out_dir + "/summary.json") << summary_json(summary) << "\n";
   }

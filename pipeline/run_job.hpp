@@ -2,22 +2,39 @@
 // One run of the system over a dataset, as `kestrel run`, `kestrel demo` and `kestrel bench`
 // do it: feed the stream, write the outputs, score against ground truth where there is one.
 #include <functional>
+#include <map>
+#include <optional>
 #include <string>
+#include <vector>
 
+#include "core/frame.hpp"
+#include "core/trajectory.hpp"
+#include "detect/oracle_detector.hpp"
 #include "dynamic/dynamic_filter.hpp"
 #include "dynamic/removal_metrics.hpp"
 #include "io/measurement_source.hpp"
+#include "pipeline/stage_stats.hpp"
+#include "pipeline/system.hpp"
 
 namespace kestrel::pipeline {
 
 struct RunOptions {
   std::string dataset_dir;        // for the Kestrel sequence's truth files (boxes, masks)
   std::string detector = "yolo";  // yolo | oracle | none
+  detect::OracleOptions oracle;   // noise of the oracle detector (false negatives, jitter)
   dynamic::FilterMode dynamic = dynamic::FilterMode::kHybrid;
   bool sequential = true;
   std::string out_dir;     // trajectory.txt, timing.json, summary.json
   std::string models_dir;  // "" = find ../shared/models
   bool progress = true;
+  std::string progress_label;    // printed before the bar when not empty
+  std::size_t strip_frames = 4;  // frames kept (evenly spread) for the report's strip
+};
+
+// A frame kept for the report, with what the system said about it.
+struct KeptFrame {
+  RgbdFrame frame;
+  FrameReport report;
 };
 
 struct RunSummary {
@@ -32,6 +49,12 @@ struct RunSummary {
   double detector_ms_median = 0.0;
   double wall_seconds = 0.0;
   std::string timing_json;
+  // For the report and the benchmark: the estimate, the reference, every stage's latency.
+  Trajectory trajectory;
+  std::optional<Trajectory> ground_truth;
+  std::map<std::string, LatencySummary> stages;
+  std::map<std::string, std::size_t> counters;
+  std::vector<KeptFrame> strip;
 };
 
 // Throws kestrel::Error for unknown detectors or unreadable inputs.

@@ -149,6 +149,7 @@ struct System::Impl {
       detections.tracked_up_to(frame.t);
     }
     report.detections = static_cast<int>(boxes.size());
+    report.boxes = boxes;
 
     auto t0 = Clock::now();
     tracking::FrameFeatures features =
@@ -192,6 +193,11 @@ struct System::Impl {
     stats.record("dynamic_filter", ms_since(t0));
     prev_gray = gray;
     prev_t = frame.t;
+
+    report.feature_px.reserve(features.size());
+    for (const auto& kp : features.keypoints) report.feature_px.push_back(kp.px);
+    report.feature_dynamic.resize(keep.size());
+    for (std::size_t i = 0; i < keep.size(); ++i) report.feature_dynamic[i] = keep[i] ? 0 : 1;
 
     t0 = Clock::now();
     const tracking::TrackResult tr = tracker.track(std::move(features), {}, &keep);

@@ -46,6 +46,10 @@ struct FrameReport {
   bool keyframe = false;
   double latency_ms = 0.0;         // frame arrival to pose
   dynamic::RemovalCounts removal;  // against the truth mask, when one is provided
+  // What the filter decided, for debug images and the report's frame strip.
+  std::vector<Vec2> feature_px;
+  std::vector<std::uint8_t> feature_dynamic;   // 1 = rejected as dynamic
+  std::vector<dynamic::BoxRegion> boxes;       // dynamic-class detections matched to the frame
 };
 
 class Observer {
