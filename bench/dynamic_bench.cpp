@@ -40,9 +40,12 @@ Image gray_of(const Image& color) {
 int main(int argc, char** argv) {
   std::vector<std::string> scenarios;
   double duration = 6.0;
+  std::size_t gap = 1;  // frames between the two compared frames
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--duration") && i + 1 < argc) {
       duration = std::stod(argv[++i]);
+    } else if (!std::strcmp(argv[i], "--gap") && i + 1 < argc) {
+      gap = std::stoul(argv[++i]);
     } else {
       scenarios.emplace_back(argv[i]);
     }
@@ -86,17 +89,17 @@ int main(int argc, char** argv) {
       std::vector<double> ms;
       dynamic::DynamicFilterOptions opt;
       opt.mode = mode.filter;
-      for (std::size_t k = 1; k < frames.size(); ++k) {
+      for (std::size_t k = gap; k < frames.size(); ++k) {
         const auto features =
             extractor.extract(frames[k].color, nullptr, &frames[k].depth, calib.depth_scale);
-        const Image prev = gray_of(frames[k - 1].color), cur = gray_of(frames[k].color);
+        const Image prev = gray_of(frames[k - gap].color), cur = gray_of(frames[k].color);
         dynamic::DynamicFilterInput in;
         in.prev_gray = &prev;
         in.cur_gray = &cur;
         for (const auto& kp : features.keypoints) in.points.push_back(kp.px);
         in.depth_m = features.depth;
         in.K = calib.camera.K();
-        const SE3 T_w_c0 = frames[k - 1].body.T_w_b * calib.T_body_camera;
+        const SE3 T_w_c0 = frames[k - gap].body.T_w_b * calib.T_body_camera;
         const SE3 T_w_c1 = frames[k].body.T_w_b * calib.T_body_camera;
         in.R_cur_prev = (T_w_c1.inverse() * T_w_c0).rotation();  // a perfect gyro
         if (!std::strcmp(mode.boxes, "yolo")) in.boxes = yolo_boxes[k];

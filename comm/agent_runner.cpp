@@ -1,0 +1,251 @@
+#include "comm/agent_runner.hpp"
+
+#include <atomic>
+#include <cstdio>
+#include <deque>
+#include <filesystem>
+#include <map>
+#include <mutex>
+#include <thread>
+
+#include "comm/grid_delta.hpp"
+#include "comm/telemetry_observer.hpp"
+#include "io/trajectory_io.hpp"
+#include "maps/grid_io.hpp"
+#include "maps/map_builder.hpp"
+#include "nav/astar_planner.hpp"
+#include "pipeline/system.hpp"
+
+namespace kestrel::comm {
+namespace {
+
+// Collects keyframe poses from the tracking thread for the main loop's map builder.
+class KeyframeCollector : public pipeline::Observer {
+ public:
+  void on_frame(const pipeline::FrameReport& r) override {
+    std::lock_guard lock(mutex_);
+    if (r.state == tracking::TrackingState::kOk ||
+        r.state == tracking::TrackingState::kRelocalized) {
+      last_pose_ = r.T_w_body;
+      if (!have_first_) {
+        first_pose_ = r.T_w_body;
+        have_first_ = true;
+      }
+      if (r.keyframe) keyframes_.emplace_back(r.t, r.T_w_body);
+    }
+  }
+  std::vector<std::pair<Timestamp, SE3>> take() {
+    std::lock_guard lock(mutex_);
+    std::vector<std::pair<Timestamp, SE3>> out(keyframes_.begin(), keyframes_.end());
+    keyframes_.clear();
+    return out;
+  }
+  bool poses(SE3& first, SE3& last) const {
+    std::lock_guard lock(mutex_);
+    first = first_pose_;
+    last = last_pose_;
+    return have_first_;
+  }
+
+ private:
+  mutable std::mutex mutex_;
+  std::deque<std::pair<Timestamp, SE3>> keyframes_;
+  SE3 first_pose_, last_pose_;
+  bool have_first_ = false;
+};
+
+GridState to_state(const maps::OccupancyGrid& g, std::uint32_t seq) {
+  GridState s;
+  s.seq = seq;
+  s.width = static_cast<std::uint32_t>(g.width());
+  s.height = static_cast<std::uint32_t>(g.height());
+  s.resolution = g.resolution();
+  s.origin = {g.origin().x(), g.origin().y()};
+  s.cells.reserve(g.cells().size());
+  for (std::int8_t v : g.cells()) s.cells.push_back(v < 0 ? 255 : static_cast<std::uint8_t>(v));
+  return s;
+}
+
+}  // namespace
+
+AgentRunSummary run_agent(io::MeasurementSource& source, const AgentRunOptions& options) {
+  const Calibration calib = source.calibration();
+  pipeline::SystemOptions sys_opt;
+  sys_opt.sequential = !options.realtime;
+  pipeline::System system(calib, sys_opt, nullptr);
+  KeyframeCollector keyframes;
+  std::atomic<bool> paused{false};
+  std::mutex map_mutex;  // guards grid and builder outputs used by the command handler
+  maps::OccupancyGrid grid;
+  std::atomic<std::uint64_t> paths{0};
+  AgentLink* link_ptr = nullptr;
+
+  auto plan_to = [&](const CommandMsg& c, const Vec2& goal) -> AckMsg {
+    SE3 first, last;
+    if (!keyframes.poses(first, last)) return {c.id, 0, AckResult::kRejected, "not tracking yet"};
+    const Vec2 start(last.translation().x(), last.translation().y());
+    nav::PlanResult plan;
+    {
+      std::lock_guard lock(map_mutex);
+      if (grid.empty()) return {c.id, 0, AckResult::kRejected, "no occupancy grid yet"};
+      nav::PlannerOptions po;
+      po.robot_radius = options.robot_radius;
+      plan = nav::plan_path(grid, start, goal, po);
+    }
+    if (!plan.ok()) return {c.id, 0, AckResult::kRejected, plan.message};
+    PathMsg path;
+    path.t = wall_clock_ns();
+    path.goal_id = c.id;
+    for (const Vec2& w : plan.waypoints) path.points.push_back({w.x(), w.y()});
+    link_ptr->publish(path);
+    ++paths;
+    char detail[96];
+    std::snprintf(detail, sizeof(detail), "path of %zu waypoints, %.2f m", plan.waypoints.size(),
+                  plan.length);
+    return {c.id, 0, AckResult::kDone, detail};
+  };
+
+  auto handle = [&](const CommandMsg& c) -> AckMsg {
+    switch (c.kind) {
+      case CommandKind::kPause:
+        paused = true;
+        return {c.id, 0, AckResult::kDone, "paused"};
+      case CommandKind::kResume:
+        paused = false;
+        return {c.id, 0, AckResult::kDone, "resumed"};
+      case CommandKind::kGoal:
+        return plan_to(c, Vec2(c.goal[0], c.goal[1]));
+      case CommandKind::kReturnHome: {
+        SE3 first, last;
+        if (!keyframes.poses(first, last)) return {c.id, 0, AckResult::kRejected, "no home yet"};
+        return plan_to(c, Vec2(first.translation().x(), first.translation().y()));
+      }
+      case CommandKind::kSaveMap: {
+        if (c.path.empty()) return {c.id, 0, AckResult::kRejected, "no path given"};
+        try {
+          std::filesystem::create_directories(c.path);
+          io::write_tum(c.path + "/trajectory.txt", system.trajectory());
+          std::lock_guard lock(map_mutex);
+          if (!grid.empty()) maps::write_map(c.path + "/map.yaml", grid);
+        } catch (const std::exception& e) {
+          return {c.id, 0, AckResult::kRejected, e.what()};
+        }
+        return {c.id, 0, AckResult::kDone, "saved to " + c.path};
+      }
+      case CommandKind::kTeleop:
+        return {c.id, 0, AckResult::kRejected, "a replayed source cannot be steered"};
+    }
+    return {c.id, 0, AckResult::kRejected, "unknown command"};
+  };
+
+  AgentLink link(options.link, handle);
+  link_ptr = &link;
+  TelemetryObserver telemetry(link);
+  system.add_observer(&telemetry);
+  system.add_observer(&keyframes);
+  link.start();
+  if (!link.wait_connected(std::chrono::seconds(10))) {
+    std::fprintf(stderr,
+                 "kestrel agent: broker not reachable yet; telemetry is dropped until it is\n");
+  }
+  telemetry.publish_status();
+
+  maps::MapBuilder builder;
+  std::deque<RgbdFrame> recent;  // depth of the last frames, for the keyframes tracked from them
+  GridState published;
+  std::uint32_t grid_seq = 0;
+  AgentRunSummary summary;
+  auto last_grid = std::chrono::steady_clock::now();
+  bool new_keyframes = false;
+
+  auto update_map = [&] {
+    for (const auto& [t, T_w_body] : keyframes.take()) {
+      for (const RgbdFrame& f : recent) {
+        if (f.t != t || f.depth.empty()) continue;
+        maps::MapKeyframe kf;
+        kf.T_w_c = T_w_body * calib.T_body_camera;
+        kf.color = &f.color;
+        kf.depth = &f.depth;
+        kf.depth_scale = f.depth_scale;
+        kf.camera = calib.camera;
+        builder.insert(kf);
+        new_keyframes = true;
+      }
+    }
+    const auto now = std::chrono::steady_clock::now();
+    if (!new_keyframes || now - last_grid < std::chrono::duration<double>(options.grid_period_s)) {
+      return;
+    }
+    last_grid = now;
+    new_keyframes = false;
+    maps::OccupancyGrid g = builder.grid();
+    if (g.empty()) return;
+    GridState current = to_state(g, ++grid_seq);
+    const bool key = options.grid_keyframe_every <= 1 ||
+                     (grid_seq - 1) % static_cast<std::uint32_t>(options.grid_keyframe_every) == 0;
+    GridDeltaMsg msg = make_grid_delta(key ? GridState{} : published, current, wall_clock_ns());
+    summary.grid_bytes += encode(msg).size();
+    ++summary.grid_messages;
+    link.publish(msg);
+    published = std::move(current);
+    std::lock_guard lock(map_mutex);
+    grid = std::move(g);
+  };
+
+  const auto wall0 = std::chrono::steady_clock::now();
+  Timestamp t0 = -1;
+  const Timestamp limit =
+      options.duration_s > 0 ? static_cast<Timestamp>(options.duration_s * 1e9) : -1;
+  auto next_paused_status = std::chrono::steady_clock::now();
+  Timestamp paused_ns = 0;
+  while (auto m = source.next()) {
+    const Timestamp t = stamp_of(*m);
+    if (t0 < 0) t0 = t;
+    if (limit >= 0 && t - t0 > limit) break;
+    while (paused) {
+      const auto p0 = std::chrono::steady_clock::now();
+      if (p0 >= next_paused_status) {
+        telemetry.publish_status("paused");
+        next_paused_status = p0 + std::chrono::seconds(1);
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+      paused_ns += std::chrono::duration_cast<std::chrono::nanoseconds>(
+                       std::chrono::steady_clock::now() - p0)
+                       .count();
+    }
+    if (options.realtime) {
+      std::this_thread::sleep_until(wall0 + std::chrono::nanoseconds(t - t0 + paused_ns));
+    }
+    if (const auto* f = std::get_if<RgbdFrame>(&*m)) {
+      ++summary.frames;
+      recent.push_back(*f);
+      if (recent.size() > 16) recent.pop_front();
+      if (options.progress && summary.frames % 100 == 0) {
+        std::printf("  %zu frames, %llu poses published\n", summary.frames,
+                    static_cast<unsigned long long>(telemetry.poses_published()));
+        std::fflush(stdout);
+      }
+    }
+    system.feed(*m);
+    update_map();
+  }
+  system.finish();
+  new_keyframes = true;
+  last_grid = {};
+  update_map();
+  telemetry.publish_status("finished");
+  // Let the outbox drain before the link says goodbye.
+  for (int i = 0; i < 100 && link.client().outbox_size() > 0; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  summary.tracked = system.trajectory().size();
+  summary.poses_published = telemetry.poses_published();
+  summary.paths_published = paths;
+  summary.link = link.counts();
+  summary.mqtt = link.client().stats();
+  summary.wall_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+  return summary;
+}
+
+}  // namespace kestrel::comm

@@ -1,0 +1,122 @@
+#pragma once
+// The telemetry schema (DESIGN.md "Telemetry"): every message an agent, the station or mapd
+// exchanges. One versioned envelope {"v": kSchemaVersion, "k": kind, ...} with short keys,
+// encoded as CBOR on the wire (measured smaller than JSON: bench/comm_bench.cpp); the decoder
+// also accepts the same document as JSON text so that a browser may send plain JSON commands.
+// Units are SI, stamps int64 ns (Timestamp), poses T_w_body.
+#include <array>
+#include <cstdint>
+#include <string>
+#include <variant>
+#include <vector>
+
+#include "core/timestamp.hpp"
+
+namespace kestrel::comm {
+
+constexpr int kSchemaVersion = 1;
+
+struct PoseMsg {
+  Timestamp t = 0;
+  std::array<double, 3> p{};            // metres, world frame
+  std::array<double, 4> q{0, 0, 0, 1};  // x y z w
+  std::uint8_t state = 0;               // tracking::TrackingState as an integer
+  std::uint32_t seq = 0;                // per-agent counter: the station checks order and gaps
+};
+
+struct StatusMsg {
+  Timestamp t = 0;
+  bool online = true;  // false: the last will, or a clean shutdown
+  std::string state;   // initializing, ok, lost, relocalized, paused, finished, offline
+  std::string role;    // "uav" | "ugv"
+  double fps = 0.0;
+  double cpu = 0.0;     // share of one core used by the process, 0..n
+  double health = 1.0;  // battery-like 0..1
+  std::uint64_t frames = 0;
+  std::uint64_t lost = 0;
+  std::uint64_t drops = 0;  // queue drops (detection newest-wins, telemetry outbox)
+};
+
+struct DetectionsMsg {
+  Timestamp t = 0;
+  std::vector<std::pair<std::string, std::uint32_t>> counts;  // label -> boxes in this frame
+  std::uint32_t dynamic_features = 0;
+};
+
+struct ObjectInfo {
+  std::uint32_t id = 0;
+  std::string label;
+  std::array<double, 3> center{};
+  std::array<double, 3> size{};
+  double yaw = 0.0;
+  std::uint32_t observations = 0;
+};
+
+// On change only: the objects that changed since the last message and ids that disappeared.
+// `full` marks a snapshot (a late subscriber or a merge resets its copy).
+struct ObjectsMsg {
+  Timestamp t = 0;
+  bool full = false;
+  std::vector<ObjectInfo> objects;
+  std::vector<std::uint32_t> removed;
+};
+
+// An occupancy-grid change against version base_seq (see comm/grid_delta.hpp). base_seq 0 with
+// every cell is a keyframe of the grid.
+struct GridDeltaMsg {
+  Timestamp t = 0;
+  std::uint32_t seq = 0;
+  std::uint32_t base_seq = 0;
+  std::uint32_t width = 0, height = 0;
+  double resolution = 0.05;             // metres per cell
+  std::array<double, 2> origin{};       // world x, y of cell (0, 0)
+  std::vector<std::uint8_t> runs_zlib;  // zlib(run-length of changed cells)
+};
+
+struct PathMsg {
+  Timestamp t = 0;
+  std::string goal_id;                        // the command that asked for it
+  std::vector<std::array<double, 2>> points;  // world x, y
+  bool reached = false;
+};
+
+enum class CommandKind : std::uint8_t { kGoal, kTeleop, kPause, kResume, kReturnHome, kSaveMap };
+const char* to_string(CommandKind k);
+
+struct CommandMsg {
+  std::string id;  // unique per command: duplicates are acknowledged, not executed again
+  Timestamp t = 0;
+  CommandKind kind = CommandKind::kPause;
+  std::array<double, 3> goal{};  // x, y, yaw (kGoal)
+  double v = 0.0, w = 0.0;       // m/s, rad/s (kTeleop)
+  std::string path;              // kSaveMap: where to write
+};
+
+enum class AckResult : std::uint8_t { kAccepted, kDone, kRejected, kDuplicate };
+const char* to_string(AckResult r);
+
+struct AckMsg {
+  std::string id;
+  Timestamp t = 0;
+  AckResult result = AckResult::kAccepted;
+  std::string detail;
+};
+
+// Clock offset / round trip (NTP's four stamps): the station sends t0; the agent answers with
+// t0, its receive stamp t1 and its send stamp t2; the station notes t3 on arrival.
+struct PingMsg {
+  std::uint32_t id = 0;
+  Timestamp t0 = 0;
+};
+struct PongMsg {
+  std::uint32_t id = 0;
+  Timestamp t0 = 0, t1 = 0, t2 = 0;
+};
+
+using Message = std::variant<PoseMsg, StatusMsg, DetectionsMsg, ObjectsMsg, GridDeltaMsg, PathMsg,
+                             CommandMsg, AckMsg, PingMsg, PongMsg>;
+
+// The stream name of a message: the last topic level kestrel/v1/<agent>/<stream>.
+const char* stream_of(const Message& m);
+
+}  // namespace kestrel::comm
