@@ -3,13 +3,16 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <sstream>
 
 #include "apps/commands.hpp"
 #include "core/error.hpp"
 #include "eval/report/run_report.hpp"
 #include "io/dataset.hpp"
+#include "io/image_io.hpp"
 #include "io/kestrel_sequence.hpp"
+#include "maps/grid_io.hpp"
 #include "pipeline/progress.hpp"
 #include "pipeline/run_job.hpp"
 #include "sim/builtin_scenarios.hpp"
@@ -123,6 +126,24 @@ std::vector<kestrel::report::StripFrame> strip_of(const std::string& run_name, c
   return out;
 }
 
+// The run's 2D grid with its objects, when the run wrote them (RGB-D runs do).
+std::optional<kestrel::report::GridMap> grid_of(const std::string& dir) {
+  namespace fs = std::filesystem;
+  if (!fs::exists(dir + "/map.yaml") || !fs::exists(dir + "/map.pgm")) return std::nullopt;
+  const auto meta = kestrel::maps::read_map_metadata(dir + "/map.yaml");
+  kestrel::report::GridMap g;
+  g.occupancy = kestrel::io::load_image(dir + "/map.pgm");
+  g.resolution = meta.resolution;
+  g.origin_x = meta.origin_x;
+  g.origin_y = meta.origin_y;
+  if (fs::exists(dir + "/objects.json")) {
+    for (const auto& o : kestrel::io::read_objects(dir + "/objects.json")) {
+      g.objects.push_back({o.label, o.center.x(), o.center.y()});
+    }
+  }
+  return g;
+}
+
 std::string fmt_1(double v) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "%.1f", v);
@@ -190,6 +211,7 @@ void setup_run(CLI::App& app) {
     report.runs.push_back(record_of(
         "run", "detector " + flags->detector + ", dynamic rejection " + flags->dynamic, summary));
     report.frames = strip_of("run", summary, opt.dataset_dir);
+    report.grid = grid_of(flags->out);
     const std::string report_path = flags->out + "/report.html";
     kestrel::report::write_report(report, report_path);
     std::printf("outputs in %s\nreport: %s\n", flags->out.c_str(), report_path.c_str());
@@ -271,6 +293,7 @@ void setup_demo(CLI::App& app) {
                                       results[i]));
     }
     report.frames = strip_of(names[0], results[0], seq);
+    report.grid = grid_of(flags->out + "/" + names[0]);
     const std::string report_path = flags->out + "/report.html";
     kestrel::report::write_report(report, report_path);
     std::printf(

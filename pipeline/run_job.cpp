@@ -2,7 +2,9 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -80,6 +82,20 @@ RunSummary run_sequence(io::MeasurementSource& source, const RunOptions& options
   SystemOptions sys_opt;
   sys_opt.sequential = options.sequential;
   sys_opt.dynamic.mode = options.dynamic;
+  // With ground truth, the run's world is the truth's (nearest pose within 20 ms of the first
+  // frame), so maps and objects can be scored against it; APE aligns anyway.
+  if (auto gt = source.ground_truth(); gt && !gt->empty()) {
+    sys_opt.initial_T_w_body = [gt = std::move(*gt)](Timestamp t) -> std::optional<SE3> {
+      const double ts = to_seconds(t);
+      const auto it = std::lower_bound(gt.stamps.begin(), gt.stamps.end(), ts);
+      std::size_t best = it == gt.stamps.end() ? gt.size() - 1 : it - gt.stamps.begin();
+      if (best > 0 && std::fabs(gt.stamps[best - 1] - ts) < std::fabs(gt.stamps[best] - ts)) {
+        --best;
+      }
+      if (std::fabs(gt.stamps[best] - ts) > 0.02) return std::nullopt;
+      return gt.poses[best];
+    };
+  }
   System system(source.calibration(), sys_opt, std::move(detector));
   RunSummary summary;
   if (!options.dataset_dir.empty() && std::filesystem::exists(options.dataset_dir + "/dynamic")) {

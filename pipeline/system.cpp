@@ -10,9 +10,11 @@
 #include "detect/dynamic_classes.hpp"
 #include "io/cv_image.hpp"
 #include "mapping/map_io.hpp"
+#include "maps/map_builder.hpp"
 #include "pipeline/bounded_queue.hpp"
 #include "pipeline/detection_buffer.hpp"
 #include "pipeline/imu_buffer.hpp"
+#include "semantic/object_database.hpp"
 #include "tracking/stereo_matcher.hpp"
 
 namespace kestrel::pipeline {
@@ -20,9 +22,22 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
+constexpr int kRejectedPatch = 8;  // pixels masked around a feature rejected as dynamic
+
 double ms_since(Clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
 }
+
+// What the mapping thread needs of a keyframe (the images are shared, not copied).
+struct MappingJob {
+  std::int64_t keyframe_id = 0;
+  Timestamp t = 0;
+  SE3 T_w_c;
+  RgbdFrame frame;
+  std::vector<maps::MapBoxRegion> masked;       // dynamic boxes and rejected features
+  std::vector<detect::Detection> static_boxes;  // chair, tv, ... for the object database
+  std::vector<detect::Detection> moving_boxes;
+};
 
 struct QueuedFrame {
   RgbdFrame frame;  // a stereo pair's left image as a monocular frame, without depth
@@ -79,9 +94,16 @@ struct System::Impl {
 
   std::thread tracking_thread;
   std::thread detection_thread;
+  std::thread mapping_thread;
+  // Mapping thread: dense maps and objects per keyframe. Never drops a keyframe: the tracking
+  // thread waits when it falls behind (DESIGN.md).
+  BoundedQueue<MappingJob> mapping_jobs{8, FullPolicy::kBlock};
+  maps::MapBuilder map_builder;
+  semantic::ObjectDatabase objects;
   std::atomic<bool> finished{false};
 
   // Tracking-thread state.
+  bool world_initialized = false;
   Image prev_gray;
   Timestamp prev_t = 0;
 
@@ -109,9 +131,6 @@ struct System::Impl {
       const auto t0 = Clock::now();
       detect::DetectionSet set = detector->detect(f->color, f->t);
       stats.record("detection", ms_since(t0));
-      std::erase_if(set.boxes, [&](const detect::Detection& d) {
-        return !dynamic_classes.is_dynamic_class(d.label);
-      });
       detections.put(std::move(set));
     }
   }
@@ -137,6 +156,7 @@ struct System::Impl {
 
     // Boxes for this frame.
     std::vector<dynamic::BoxRegion> boxes;
+    std::vector<detect::Detection> dynamic_dets, static_dets;
     if (detector) {
       const auto t0 = Clock::now();
       const auto set = options.sequential
@@ -144,7 +164,14 @@ struct System::Impl {
                            : detections.wait_and_match(frame.t, std::chrono::milliseconds(30));
       stats.record("detection_wait", ms_since(t0));
       if (set) {
-        for (const auto& d : set->boxes) boxes.push_back({d.x_min, d.y_min, d.x_max, d.y_max});
+        for (const auto& d : set->boxes) {
+          if (dynamic_classes.is_dynamic_class(d.label)) {
+            boxes.push_back({d.x_min, d.y_min, d.x_max, d.y_max});
+            dynamic_dets.push_back(d);
+          } else {
+            static_dets.push_back(d);
+          }
+        }
       }
       detections.tracked_up_to(frame.t);
     }
@@ -199,6 +226,7 @@ struct System::Impl {
     report.feature_dynamic.resize(keep.size());
     for (std::size_t i = 0; i < keep.size(); ++i) report.feature_dynamic[i] = keep[i] ? 0 : 1;
 
+    if (!world_initialized) initialize_world(frame.t);
     t0 = Clock::now();
     const tracking::TrackResult tr = tracker.track(std::move(features), {}, &keep);
     stats.record("tracking", ms_since(t0));
@@ -220,7 +248,88 @@ struct System::Impl {
       }
       removal += report.removal;
     }
+    if (tr.new_keyframe && !frame.depth.empty()) {
+      MappingJob job;
+      job.keyframe_id = tr.keyframe_id;
+      job.t = frame.t;
+      job.T_w_c = tr.T_w_c;
+      job.frame = frame;
+      // Movers never reach the maps: detected dynamic-class boxes and a patch around every
+      // feature the filter rejected (movers no detector caught) are masked out.
+      for (const auto& b : boxes) {
+        job.masked.push_back({static_cast<int>(b.x_min), static_cast<int>(b.y_min),
+                              static_cast<int>(b.x_max) + 1, static_cast<int>(b.y_max) + 1});
+      }
+      for (std::size_t i = 0; i < report.feature_px.size(); ++i) {
+        if (!report.feature_dynamic[i]) continue;
+        const int u = static_cast<int>(report.feature_px[i].x());
+        const int v = static_cast<int>(report.feature_px[i].y());
+        job.masked.push_back(
+            {u - kRejectedPatch, v - kRejectedPatch, u + kRejectedPatch, v + kRejectedPatch});
+      }
+      job.static_boxes = std::move(static_dets);
+      job.moving_boxes = std::move(dynamic_dets);
+      const auto tq = Clock::now();
+      mapping_jobs.push(std::move(job));
+      stats.record("mapping.queue_wait", ms_since(tq));
+    }
     for (Observer* o : observers) o->on_frame(report);
+  }
+
+  void mapping_loop() {
+    while (auto job = mapping_jobs.pop()) {
+      const RgbdFrame& f = job->frame;
+      const std::vector<std::uint8_t> mask =
+          maps::static_mask_from_boxes(f.depth.width, f.depth.height, job->masked);
+      auto t0 = Clock::now();
+      maps::MapKeyframe mk;
+      mk.T_w_c = job->T_w_c;
+      mk.color = &f.color;
+      mk.depth = &f.depth;
+      mk.depth_scale = f.depth_scale;
+      mk.camera = calib.camera;
+      mk.static_mask = &mask;
+      map_builder.insert(mk);
+      stats.record("mapping.dense", ms_since(t0));
+      t0 = Clock::now();
+      semantic::ObjectKeyframe ok;
+      ok.keyframe_id = job->keyframe_id;
+      ok.T_w_c = job->T_w_c;
+      ok.stamp = job->t;
+      ok.depth = &f.depth;
+      ok.depth_scale = f.depth_scale;
+      ok.camera = calib.camera;
+      ok.static_mask = &mask;
+      ok.static_boxes = std::move(job->static_boxes);
+      ok.moving_boxes = std::move(job->moving_boxes);
+      objects.update(ok);
+      stats.record("mapping.objects", ms_since(t0));
+    }
+  }
+
+  // The world frame: gravity-aligned (z up) from the accelerometer at the first frame when
+  // there is an IMU, as DESIGN.md asks; otherwise the first camera pose.
+  void initialize_world(Timestamp t) {
+    world_initialized = true;
+    if (options.initial_T_w_body) {
+      if (const auto T_w_b = options.initial_T_w_body(t)) {
+        tracker.set_initial_pose(*T_w_b * calib.T_body_camera);
+        return;
+      }
+    }
+    if (!calib.has_imu) return;
+    std::vector<ImuSample> s;
+    {
+      std::lock_guard<std::mutex> lock(imu_mutex);
+      s = imu.between(t - 200'000'000, t);
+    }
+    if (s.size() < 5) return;
+    Vec3 acc = Vec3::Zero();
+    for (const auto& x : s) acc += x.acc;
+    acc /= static_cast<double>(s.size());
+    if (acc.norm() < 5.0) return;  // not a plausible gravity reading
+    const Quat R_w_b = Quat::FromTwoVectors(acc.normalized(), Vec3::UnitZ());
+    tracker.set_initial_pose(SE3(R_w_b, Vec3::Zero()) * calib.T_body_camera);
   }
 };
 
@@ -229,6 +338,7 @@ System::System(const Calibration& calib, SystemOptions options,
     : impl_(std::make_unique<Impl>(calib, std::move(options), std::move(detector))) {
   impl_->tracking_thread = std::thread([this] { impl_->tracking_loop(); });
   if (impl_->detector) impl_->detection_thread = std::thread([this] { impl_->detection_loop(); });
+  impl_->mapping_thread = std::thread([this] { impl_->mapping_loop(); });
 }
 
 System::~System() { finish(); }
@@ -261,6 +371,8 @@ void System::finish() {
   impl_->detection_frames.close();
   impl_->frames.close();
   if (impl_->tracking_thread.joinable()) impl_->tracking_thread.join();
+  impl_->mapping_jobs.close();
+  if (impl_->mapping_thread.joinable()) impl_->mapping_thread.join();
   if (impl_->detection_thread.joinable()) impl_->detection_thread.join();
   impl_->stats.set_counter("detection.dropped", impl_->detection_frames.dropped());
   impl_->stats.set_counter("detection.matched", impl_->detections.matched());
@@ -275,6 +387,9 @@ void System::write_map_outputs(const std::string& dir) const {
   mapping::save_map(dir + "/map.bin", map);
   mapping::write_keyframes_tum(dir + "/keyframes.txt", map, impl_->calib.T_body_camera);
   mapping::write_points_ply(dir + "/sparse.ply", map);
+  // Dense cloud, OctoMap, 2D grid and objects (written after finish(): the thread is joined).
+  impl_->map_builder.write_outputs(dir);
+  impl_->objects.write_outputs(dir);
 }
 
 Trajectory System::trajectory() const {

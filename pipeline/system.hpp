@@ -10,6 +10,7 @@
 // tests are reproducible: the tracker waits for the detection of its own frame.
 #include <functional>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "core/calibration.hpp"
@@ -31,6 +32,10 @@ struct SystemOptions {
   std::size_t frame_queue = 8;
   std::size_t detection_queue = 2;
   std::vector<std::string> dynamic_classes;  // empty: detect/dynamic_classes defaults
+  // World frame: the body pose this returns for the first frame's stamp (e.g. the ground
+  // truth's, so maps and objects compare with a simulated world); when it is unset or returns
+  // nothing, gravity-aligned from the IMU, else the first camera pose.
+  std::function<std::optional<SE3>(Timestamp)> initial_T_w_body;
   std::string load_map;  // map.bin of an earlier session: relocalize in it (multi-session)
 };
 
@@ -48,8 +53,8 @@ struct FrameReport {
   dynamic::RemovalCounts removal;  // against the truth mask, when one is provided
   // What the filter decided, for debug images and the report's frame strip.
   std::vector<Vec2> feature_px;
-  std::vector<std::uint8_t> feature_dynamic;   // 1 = rejected as dynamic
-  std::vector<dynamic::BoxRegion> boxes;       // dynamic-class detections matched to the frame
+  std::vector<std::uint8_t> feature_dynamic;  // 1 = rejected as dynamic
+  std::vector<dynamic::BoxRegion> boxes;      // dynamic-class detections matched to the frame
 };
 
 class Observer {
@@ -78,7 +83,8 @@ class System {
   void finish();
 
   Trajectory trajectory() const;  // T_w_body of every tracked frame
-  // keyframes.txt (TUM, T_w_body), map.bin (versioned binary map) and sparse.ply, after finish().
+  // keyframes.txt (TUM, T_w_body), map.bin, sparse.ply, and the dense maps (cloud.ply,
+  // octomap.bt, map.pgm + map.yaml) and objects.json, after finish().
   void write_map_outputs(const std::string& dir) const;
   dynamic::RemovalCounts removal() const;
   const StageStats& stats() const;
