@@ -4,11 +4,16 @@
 
 #include <atomic>
 #include <chrono>
+#include <filesystem>
+#include <map>
 #include <mutex>
 #include <thread>
 
 #include "detect/dynamic_classes.hpp"
 #include "io/cv_image.hpp"
+#include "loop/loop_detector.hpp"
+#include "loop/pose_graph.hpp"
+#include "loop/vocabulary.hpp"
 #include "mapping/map_io.hpp"
 #include "maps/map_builder.hpp"
 #include "pipeline/bounded_queue.hpp"
@@ -37,6 +42,13 @@ struct MappingJob {
   std::vector<maps::MapBoxRegion> masked;       // dynamic boxes and rejected features
   std::vector<detect::Detection> static_boxes;  // chair, tv, ... for the object database
   std::vector<detect::Detection> moving_boxes;
+};
+
+// What the loop-closing thread needs of a keyframe (a copy: the tracker keeps its map).
+struct LoopJob {
+  loop::PlaceView view;
+  Timestamp t = 0;
+  SE3 T_w_c;
 };
 
 struct QueuedFrame {
@@ -100,6 +112,16 @@ struct System::Impl {
   BoundedQueue<MappingJob> mapping_jobs{8, FullPolicy::kBlock};
   maps::MapBuilder map_builder;
   semantic::ObjectDatabase objects;
+  // Loop-closing thread: place recognition on every keyframe; the pose graph over keyframes
+  // runs when the run ends and corrects keyframes, objects and the trajectory.
+  std::thread loop_thread;
+  BoundedQueue<LoopJob> loop_jobs{16, FullPolicy::kBlock};
+  std::unique_ptr<loop::Vocabulary> vocabulary;
+  std::unique_ptr<loop::LoopDetector> loop_detector;
+  std::map<loop::PoseId, SE3> keyframe_poses;  // T_w_c as tracked
+  std::map<loop::PoseId, Timestamp> keyframe_stamps;
+  std::vector<loop::PoseGraphEdge> graph_edges;
+  std::size_t loops = 0;
   std::atomic<bool> finished{false};
 
   // Tracking-thread state.
@@ -248,6 +270,23 @@ struct System::Impl {
       }
       removal += report.removal;
     }
+    if (tr.new_keyframe && loop_detector) {
+      if (const mapping::Keyframe* kf = tracker.map().keyframe(tr.keyframe_id)) {
+        LoopJob job;
+        job.t = kf->t;
+        job.T_w_c = kf->T_w_c;
+        job.view.id = kf->id;
+        const tracking::FrameFeatures& ff = kf->features;
+        job.view.descriptors = ff.descriptors;
+        job.view.points_c = ff.points_c;
+        for (std::size_t i = 0; i < ff.size(); ++i) {
+          job.view.keypoints_un.push_back(ff.keypoints[i].un);
+          job.view.has_point.push_back(ff.has_depth(i) ? 1 : 0);
+        }
+        job.view.neighbours = tracker.map().covisible(kf->id, 10);
+        loop_jobs.push(std::move(job));
+      }
+    }
     if (tr.new_keyframe && !frame.depth.empty()) {
       MappingJob job;
       job.keyframe_id = tr.keyframe_id;
@@ -307,6 +346,52 @@ struct System::Impl {
     }
   }
 
+  void loop_loop() {
+    std::optional<loop::PoseId> previous;
+    while (auto job = loop_jobs.pop()) {
+      const loop::PoseId id = job->view.id;
+      keyframe_poses[id] = job->T_w_c;
+      keyframe_stamps[id] = job->t;
+      if (previous) {
+        graph_edges.push_back({*previous, id, keyframe_poses[*previous].inverse() * job->T_w_c,
+                               loop::EdgeKind::kSequential});
+      }
+      previous = id;
+      const auto t0 = Clock::now();
+      const auto match = loop_detector->process(job->view);
+      stats.record("loop.detect", ms_since(t0));
+      if (match) {
+        ++loops;
+        graph_edges.push_back(
+            {match->match, match->query, match->T_match_query, loop::EdgeKind::kLoop});
+      }
+    }
+  }
+
+  // After a loop: optimize the keyframe pose graph, then move every frame pose with the
+  // correction of the keyframe before it, and the objects with their keyframes.
+  void correct_with_loops() {
+    if (loops == 0 || keyframe_poses.size() < 3) return;
+    const auto t0 = Clock::now();
+    const loop::PoseGraphResult r =
+        loop::optimize_pose_graph(keyframe_poses, graph_edges, {keyframe_poses.begin()->first});
+    stats.record("loop.pose_graph", ms_since(t0));
+    if (!r.converged && r.final_cost >= r.initial_cost) return;
+    std::map<Timestamp, SE3> correction;  // by keyframe stamp: T_w_new * T_w_old^-1
+    for (const auto& [id, T_new] : r.poses) {
+      correction[keyframe_stamps[id]] = T_new * keyframe_poses[id].inverse();
+      objects.reanchor(id, T_new);
+    }
+    std::lock_guard<std::mutex> lock(result_mutex);
+    for (std::size_t i = 0; i < trajectory.size(); ++i) {
+      const Timestamp t = from_seconds(trajectory.stamps[i]);
+      auto it = correction.upper_bound(t);
+      if (it == correction.begin()) continue;
+      --it;
+      trajectory.poses[i] = it->second * trajectory.poses[i];
+    }
+  }
+
   // The world frame: gravity-aligned (z up) from the accelerometer at the first frame when
   // there is an IMU, as DESIGN.md asks; otherwise the first camera pose.
   void initialize_world(Timestamp t) {
@@ -339,6 +424,13 @@ System::System(const Calibration& calib, SystemOptions options,
   impl_->tracking_thread = std::thread([this] { impl_->tracking_loop(); });
   if (impl_->detector) impl_->detection_thread = std::thread([this] { impl_->detection_loop(); });
   impl_->mapping_thread = std::thread([this] { impl_->mapping_loop(); });
+  const std::string voc = impl_->options.vocabulary;
+  if (!voc.empty() && std::filesystem::exists(voc)) {
+    impl_->vocabulary = std::make_unique<loop::Vocabulary>(loop::Vocabulary::load(voc));
+    impl_->loop_detector =
+        std::make_unique<loop::LoopDetector>(*impl_->vocabulary, impl_->calib.camera);
+    impl_->loop_thread = std::thread([this] { impl_->loop_loop(); });
+  }
 }
 
 System::~System() { finish(); }
@@ -372,7 +464,11 @@ void System::finish() {
   impl_->frames.close();
   if (impl_->tracking_thread.joinable()) impl_->tracking_thread.join();
   impl_->mapping_jobs.close();
+  impl_->loop_jobs.close();
   if (impl_->mapping_thread.joinable()) impl_->mapping_thread.join();
+  if (impl_->loop_thread.joinable()) impl_->loop_thread.join();
+  impl_->correct_with_loops();
+  impl_->stats.set_counter("loop.closed", impl_->loops);
   if (impl_->detection_thread.joinable()) impl_->detection_thread.join();
   impl_->stats.set_counter("detection.dropped", impl_->detection_frames.dropped());
   impl_->stats.set_counter("detection.matched", impl_->detections.matched());

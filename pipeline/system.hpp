@@ -36,6 +36,8 @@ struct SystemOptions {
   // truth's, so maps and objects compare with a simulated world); when it is unset or returns
   // nothing, gravity-aligned from the IMU, else the first camera pose.
   std::function<std::optional<SE3>(Timestamp)> initial_T_w_body;
+  // Place-recognition vocabulary (kestrel vocab); empty or missing: no loop closing.
+  std::string vocabulary = std::string(KESTREL_SOURCE_DIR) + "/config/vocabulary.kvoc";
   std::string load_map;  // map.bin of an earlier session: relocalize in it (multi-session)
 };
 
