@@ -1,9 +1,15 @@
-// `kestrel station`: the ground station in a terminal (the browser page is web/'s job): lists
-// the agents it hears with state, pose rate, round trip and link health, and sends commands.
+// `kestrel station`: the ground station in a terminal: lists the agents it hears with state,
+// pose rate, round trip and link health, and sends commands. With --http PORT it also serves the
+// browser page (web/) on 127.0.0.1, which talks to the broker's WebSocket listener itself.
+#include <unistd.h>
+
 #include <cstdio>
+#include <filesystem>
+#include <nlohmann/json.hpp>
 #include <thread>
 
 #include "apps/commands.hpp"
+#include "comm/http_server.hpp"
 #include "comm/station_link.hpp"
 #include "core/error.hpp"
 
@@ -16,7 +22,23 @@ struct StationFlags {
   std::vector<std::string> commands;  // AGENT:KIND[:ARGS]
   double duration = 10.0;
   double period = 1.0;
+  int http_port = -1;  // -1: no page
+  int ws_port = 9001;
+  std::string web_dir;
 };
+
+// web/ next to the build folder (build/kestrel -> web/), else ./web.
+std::string find_web_dir() {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+  if (!ec) {
+    for (fs::path d = exe.parent_path(); !d.empty() && d != d.root_path(); d = d.parent_path()) {
+      if (fs::exists(d / "web" / "index.html")) return (d / "web").string();
+    }
+  }
+  return "web";
+}
 
 kestrel::comm::CommandMsg parse_command(const std::string& spec, std::string& agent) {
   using kestrel::comm::CommandKind;
@@ -75,7 +97,16 @@ void setup_station(CLI::App& app) {
                   "AGENT:pause | AGENT:resume | AGENT:home | AGENT:goal:X:Y[:YAW] | "
                   "AGENT:teleop:V[:W] | AGENT:save_map:DIR (repeatable; sent once the agent is "
                   "heard)");
-  cmd->add_option("--duration", flags->duration, "seconds to watch")->capture_default_str();
+  cmd->add_option("--duration", flags->duration, "seconds to watch (0: until interrupted)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  cmd->add_option("--http", flags->http_port,
+                  "serve the browser station on http://127.0.0.1:PORT (0: a free port)")
+      ->check(CLI::Range(0, 65535));
+  cmd->add_option("--ws-port", flags->ws_port, "the broker's WebSocket port, for the page")
+      ->check(CLI::Range(1, 65535))
+      ->capture_default_str();
+  cmd->add_option("--web", flags->web_dir, "folder with the page (default: the repository's web/)");
   cmd->callback([flags] {
     kestrel::comm::StationLinkOptions so;
     kestrel::comm::parse_broker_url(flags->broker, "--broker", so.mqtt);
@@ -92,6 +123,31 @@ void setup_station(CLI::App& app) {
       auto c = parse_command(spec, agent);
       todo.emplace_back(agent, c);
     }
+    std::unique_ptr<kestrel::comm::HttpServer> http;
+    if (flags->http_port >= 0) {
+      const std::string web = flags->web_dir.empty() ? find_web_dir() : flags->web_dir;
+      if (!std::filesystem::exists(web + "/index.html")) {
+        throw kestrel::Error::at(web, 0, "--web", "no index.html (the page lives in web/)");
+      }
+      if (!std::filesystem::exists(web + "/node_modules/mqtt/dist/mqtt.min.js")) {
+        throw kestrel::Error::at(
+            web, 0, "--web", "node_modules/mqtt missing: run scripts/setup (npm ci --prefix web)");
+      }
+      http = std::make_unique<kestrel::comm::HttpServer>(web, flags->http_port);
+      // The page connects as the station user; this is served on loopback only.
+      nlohmann::json config = {
+          {"broker_ws", "ws://" + so.mqtt.host + ":" + std::to_string(flags->ws_port)},
+          {"username", so.mqtt.username},
+          {"password", so.mqtt.password},
+          {"client_id", so.mqtt.username + "-web-" + std::to_string(getpid())}};
+      const std::string body = config.dump();
+      http->route("/config.json", [body] {
+        return kestrel::comm::HttpResponse{200, "application/json", body};
+      });
+      http->start();
+      std::printf("station page: http://127.0.0.1:%d/ (serving %s)\n", http->port(), web.c_str());
+      std::fflush(stdout);
+    }
     kestrel::comm::StationLink station(so);
     station.start();
     if (!station.wait_connected(std::chrono::seconds(5))) {
@@ -101,7 +157,8 @@ void setup_station(CLI::App& app) {
     std::map<std::string, std::string> sent;  // command id -> agent
     std::map<std::string, std::uint64_t> last_poses;
     const auto t0 = std::chrono::steady_clock::now();
-    while (std::chrono::steady_clock::now() - t0 < std::chrono::duration<double>(flags->duration)) {
+    while (flags->duration <= 0 ||
+           std::chrono::steady_clock::now() - t0 < std::chrono::duration<double>(flags->duration)) {
       std::this_thread::sleep_for(std::chrono::duration<double>(flags->period));
       const auto agents = station.agents();
       for (auto it = todo.begin(); it != todo.end();) {
