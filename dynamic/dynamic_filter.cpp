@@ -12,6 +12,14 @@ namespace {
 
 constexpr double kPnpInlierPx = 2.0;
 
+cv::Matx33d to_matx(const Mat3& m) {
+  cv::Matx33d out;
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) out(r, c) = m(r, c);
+  }
+  return out;
+}
+
 cv::Mat as_mat(const Image& im) {
   return cv::Mat(im.height, im.width, CV_8UC1, const_cast<std::uint8_t*>(im.data->data()),
                  im.step());
@@ -197,6 +205,8 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
     out.tracked += valid[i] ? 1 : 0;
   }
 
+  const cv::Matx33d Kcv = to_matx(in.K);
+
   // 2. Ego-motion from features outside every box.
   std::vector<cv::Point2f> cand_prev, cand_cur;
   std::vector<std::size_t> cand_idx;
@@ -212,10 +222,6 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
   if (cand_idx.size() >= 15) {
     // The camera is calibrated, so fit the essential matrix (5 DOF, five-point RANSAC) rather
     // than F (7 DOF): with small baselines F bends to fit a large mover as well.
-    cv::Matx33d Kcv;
-    for (int r = 0; r < 3; ++r) {
-      for (int c = 0; c < 3; ++c) Kcv(r, c) = in.K(r, c);
-    }
     std::vector<unsigned char> e_inliers;
     const cv::Mat Em = cv::findEssentialMat(cand_prev, cand_cur, cv::Mat(Kcv), cv::RANSAC, 0.999,
                                             opt.ransac_threshold_px, e_inliers);
@@ -230,10 +236,7 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
     // the rotation-compensated flow of most features is sub-pixel, the homography test decides.
     cv::Matx33d H_rot = cv::Matx33d::eye();
     if (in.R_cur_prev) {
-      const Mat3 Hr = in.K * (*in.R_cur_prev) * in.K.inverse();
-      for (int r = 0; r < 3; ++r) {
-        for (int c = 0; c < 3; ++c) H_rot(r, c) = Hr(r, c);
-      }
+      H_rot = to_matx(in.K * (*in.R_cur_prev) * in.K.inverse());
     }
     std::vector<double> ego_flow;
     ego_flow.reserve(cand_idx.size());
@@ -266,10 +269,6 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
       img.push_back(pts_prev[i]);
     }
     if (obj.size() >= 15) {
-      cv::Matx33d Kcv;
-      for (int r = 0; r < 3; ++r) {
-        for (int c = 0; c < 3; ++c) Kcv(r, c) = in.K(r, c);
-      }
       cv::Mat rvec, tvec;
       std::vector<int> inliers;
       if (cv::solvePnPRansac(obj, img, cv::Mat(Kcv), cv::noArray(), rvec, tvec, false, 100,

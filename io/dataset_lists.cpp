@@ -19,13 +19,17 @@ void StampOrder::check(const TextTable& table, const TextRow& row, Timestamp t,
   previous_ = t;
 }
 
-std::vector<ListEntry> parse_tum_list(const TextTable& table) {
+namespace {
+
+// "stamp filename" rows, as TUM lists (decimal seconds) and ASL csv files (integer ns) hold them.
+std::vector<ListEntry> parse_stamped_files(const TextTable& table, bool nanoseconds,
+                                           const char* layout) {
   std::vector<ListEntry> out;
   StampOrder order;
   for (const TextRow& row : table.rows()) {
-    table.require_fields(row, 2, "timestamp filename");
+    table.require_fields(row, 2, layout);
     ListEntry e;
-    e.t = table.seconds(row, 0, "timestamp");
+    e.t = nanoseconds ? table.nanoseconds(row, 0, "timestamp") : table.seconds(row, 0, "timestamp");
     order.check(table, row, e.t, "timestamp");
     e.path = row.fields[1];
     if (e.path.empty()) table.fail(row, "filename", "empty file name");
@@ -33,6 +37,12 @@ std::vector<ListEntry> parse_tum_list(const TextTable& table) {
     out.push_back(std::move(e));
   }
   return out;
+}
+
+}  // namespace
+
+std::vector<ListEntry> parse_tum_list(const TextTable& table) {
+  return parse_stamped_files(table, false, "timestamp filename");
 }
 
 std::vector<AssociationEntry> parse_association(const TextTable& table) {
@@ -55,19 +65,7 @@ std::vector<AssociationEntry> parse_association(const TextTable& table) {
 }
 
 std::vector<ListEntry> parse_asl_image_csv(const TextTable& table) {
-  std::vector<ListEntry> out;
-  StampOrder order;
-  for (const TextRow& row : table.rows()) {
-    table.require_fields(row, 2, "timestamp [ns],filename");
-    ListEntry e;
-    e.t = table.nanoseconds(row, 0, "timestamp");
-    order.check(table, row, e.t, "timestamp");
-    e.path = row.fields[1];
-    if (e.path.empty()) table.fail(row, "filename", "empty file name");
-    e.line = row.line;
-    out.push_back(std::move(e));
-  }
-  return out;
+  return parse_stamped_files(table, true, "timestamp [ns],filename");
 }
 
 std::vector<ImuSample> parse_asl_imu_csv(const TextTable& table) {
