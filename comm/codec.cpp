@@ -69,6 +69,44 @@ std::int64_t integer(const json& j, const char* key, std::int64_t lo, std::int64
   return x;
 }
 
+// CBOR text strings must be UTF-8 (RFC 8949) but nlohmann's reader does not check: a string
+// that is not would decode here and then throw when the message is written as JSON or shown
+// by the page, far from where it came in.
+bool valid_utf8(const std::string& s) {
+  std::size_t i = 0;
+  while (i < s.size()) {
+    const auto c = static_cast<unsigned char>(s[i]);
+    int n = 0;
+    std::uint32_t cp = 0;
+    if (c < 0x80) {
+      ++i;
+      continue;
+    } else if ((c & 0xe0) == 0xc0) {
+      n = 1;
+      cp = c & 0x1f;
+    } else if ((c & 0xf0) == 0xe0) {
+      n = 2;
+      cp = c & 0x0f;
+    } else if ((c & 0xf8) == 0xf0) {
+      n = 3;
+      cp = c & 0x07;
+    } else {
+      return false;
+    }
+    if (i + static_cast<std::size_t>(n) >= s.size()) return false;
+    for (int k = 1; k <= n; ++k) {
+      const auto cc = static_cast<unsigned char>(s[i + static_cast<std::size_t>(k)]);
+      if ((cc & 0xc0) != 0x80) return false;
+      cp = (cp << 6) | (cc & 0x3f);
+    }
+    // Overlong forms, surrogates and code points past Unicode are not UTF-8.
+    static constexpr std::uint32_t kMin[4] = {0, 0x80, 0x800, 0x10000};
+    if (cp < kMin[n] || cp > 0x10ffff || (cp >= 0xd800 && cp <= 0xdfff)) return false;
+    i += static_cast<std::size_t>(n) + 1;
+  }
+  return true;
+}
+
 std::string text(const json& j, const char* key, std::size_t max_len = 256) {
   const json& v = field(j, key);
   if (!v.is_string())
@@ -76,6 +114,8 @@ std::string text(const json& j, const char* key, std::size_t max_len = 256) {
   std::string s = v.get<std::string>();
   if (s.size() > max_len)
     throw Fail{DecodeError::kBadField, std::string("field '") + key + "' too long"};
+  if (!valid_utf8(s))
+    throw Fail{DecodeError::kBadField, std::string("field '") + key + "' not UTF-8"};
   return s;
 }
 
@@ -263,7 +303,10 @@ Message from_json(const json& j) {
     if (!c.is_object() || c.size() > 256)
       throw Fail{DecodeError::kBadField, "field 'c' not a small map"};
     for (auto it = c.begin(); it != c.end(); ++it) {
-      if (!it.value().is_number_unsigned()) throw Fail{DecodeError::kBadField, "field 'c' count"};
+      if (!it.value().is_number_unsigned() || it.value().get<std::uint64_t>() > kU32)
+        throw Fail{DecodeError::kBadField, "field 'c' count"};
+      if (it.key().size() > 64 || !valid_utf8(it.key()))
+        throw Fail{DecodeError::kBadField, "field 'c' label"};
       m.counts.emplace_back(it.key(), static_cast<std::uint32_t>(it.value().get<std::uint64_t>()));
     }
     m.dynamic_features = static_cast<std::uint32_t>(integer(j, "df", 0, kU32));

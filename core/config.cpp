@@ -155,7 +155,8 @@ Config parse_kestrel(const Reader& rd, const YAML::Node& root) {
     cal.T_left_right =
         rd.transform(rd.require(root, "T_left_right", "T_left_right"), "T_left_right");
   }
-  if (root["T_body_camera"]) cal.T_body_camera = rd.transform(root["T_body_camera"], "T_body_camera");
+  if (root["T_body_camera"])
+    cal.T_body_camera = rd.transform(root["T_body_camera"], "T_body_camera");
   if (root["imu"]) {
     cal.has_imu = true;
     cal.imu = kestrel_imu(rd, root["imu"]);
@@ -178,7 +179,8 @@ Config parse_orbslam3(const Reader& rd, const YAML::Node& root) {
     c.fy = rd.positive(get(pre + "fy"), pre + "fy");
     c.cx = rd.number(get(pre + "cx"), pre + "cx");
     c.cy = rd.number(get(pre + "cy"), pre + "cy");
-    const std::string type = root["Camera.type"] ? root["Camera.type"].as<std::string>() : "PinHole";
+    const std::string type =
+        root["Camera.type"] ? root["Camera.type"].as<std::string>() : "PinHole";
     if (type == "KannalaBrandt8") {
       c.model = DistortionModel::kEquidistant;
       for (int i = 0; i < 4; ++i) {
@@ -232,14 +234,22 @@ Config parse_orbslam3(const Reader& rd, const YAML::Node& root) {
 
 PinholeCamera parse_euroc_camera(const Reader& rd, const YAML::Node& root, SE3* T_bc) {
   PinholeCamera c;
-  const std::vector<double> in = rd.numbers(rd.require(root, "intrinsics", "intrinsics"), "intrinsics");
+  const std::vector<double> in =
+      rd.numbers(rd.require(root, "intrinsics", "intrinsics"), "intrinsics");
   if (in.size() != 4) rd.fail(root["intrinsics"], "intrinsics", "expected [fu, fv, cu, cv]");
   c.fx = in[0];
   c.fy = in[1];
   c.cx = in[2];
   c.cy = in[3];
-  const std::vector<double> res = rd.numbers(rd.require(root, "resolution", "resolution"), "resolution");
+  const std::vector<double> res =
+      rd.numbers(rd.require(root, "resolution", "resolution"), "resolution");
   if (res.size() != 2) rd.fail(root["resolution"], "resolution", "expected [width, height]");
+  for (const double v : res) {
+    if (!(v >= 1 && v <= 100000) || v != std::floor(v))
+      rd.fail(root["resolution"], "resolution", "width and height must be positive integers");
+  }
+  if (!(c.fx > 0) || !(c.fy > 0))
+    rd.fail(root["intrinsics"], "intrinsics", "focal lengths fu, fv must be positive");
   c.width = static_cast<int>(res[0]);
   c.height = static_cast<int>(res[1]);
   const std::string model =
@@ -256,23 +266,26 @@ PinholeCamera parse_euroc_camera(const Reader& rd, const YAML::Node& root, SE3* 
 
 ImuNoise parse_euroc_imu(const Reader& rd, const YAML::Node& root) {
   ImuNoise imu;
-  imu.gyro_noise = rd.positive(rd.require(root, "gyroscope_noise_density", "gyroscope_noise_density"),
-                               "gyroscope_noise_density");
+  imu.gyro_noise =
+      rd.positive(rd.require(root, "gyroscope_noise_density", "gyroscope_noise_density"),
+                  "gyroscope_noise_density");
   imu.gyro_walk = rd.positive(rd.require(root, "gyroscope_random_walk", "gyroscope_random_walk"),
                               "gyroscope_random_walk");
-  imu.acc_noise = rd.positive(
-      rd.require(root, "accelerometer_noise_density", "accelerometer_noise_density"),
-      "accelerometer_noise_density");
-  imu.acc_walk = rd.positive(
-      rd.require(root, "accelerometer_random_walk", "accelerometer_random_walk"),
-      "accelerometer_random_walk");
+  imu.acc_noise =
+      rd.positive(rd.require(root, "accelerometer_noise_density", "accelerometer_noise_density"),
+                  "accelerometer_noise_density");
+  imu.acc_walk =
+      rd.positive(rd.require(root, "accelerometer_random_walk", "accelerometer_random_walk"),
+                  "accelerometer_random_walk");
   if (root["rate_hz"]) imu.rate_hz = rd.positive(root["rate_hz"], "rate_hz");
   return imu;
 }
 
 }  // namespace
 
-ConfigDialect detect_dialect(const std::string& text, const std::string& name) {
+namespace {
+
+ConfigDialect detect_dialect_yaml(const std::string& text, const std::string& name) {
   const YAML::Node root = parse_yaml(text, name);
   if (!root.IsMap()) throw Error::at(name, 1, "", "expected a YAML map at the top level");
   if (root["Camera.fx"] || root["Camera1.fx"]) return ConfigDialect::kOrbSlam3;
@@ -281,14 +294,16 @@ ConfigDialect detect_dialect(const std::string& text, const std::string& name) {
   return ConfigDialect::kKestrel;
 }
 
-Config parse_config(const std::string& text, const std::string& name) {
+Config parse_config_yaml(const std::string& text, const std::string& name) {
   const YAML::Node root = parse_yaml(text, name);
   if (root.IsNull()) return Config{Calibration{}, name};
   if (!root.IsMap()) throw Error::at(name, 1, "", "expected a YAML map at the top level");
   const Reader rd{name};
   Config cfg;
-  switch (detect_dialect(text, name)) {
-    case ConfigDialect::kOrbSlam3: cfg = parse_orbslam3(rd, root); break;
+  switch (detect_dialect_yaml(text, name)) {
+    case ConfigDialect::kOrbSlam3:
+      cfg = parse_orbslam3(rd, root);
+      break;
     case ConfigDialect::kEurocCamera:
       cfg.calib.camera = parse_euroc_camera(rd, root, &cfg.calib.T_body_camera);
       if (root["rate_hz"]) cfg.calib.fps = rd.positive(root["rate_hz"], "rate_hz");
@@ -297,22 +312,49 @@ Config parse_config(const std::string& text, const std::string& name) {
       cfg.calib.has_imu = true;
       cfg.calib.imu = parse_euroc_imu(rd, root);
       break;
-    case ConfigDialect::kKestrel: cfg = parse_kestrel(rd, root); break;
+    case ConfigDialect::kKestrel:
+      cfg = parse_kestrel(rd, root);
+      break;
   }
   cfg.source = name;
   return cfg;
 }
 
+// yaml-cpp throws on a node of the wrong kind (indexing a list as a map, say) from deep inside
+// the readers; its mark still names the line, so it becomes an error that names the file.
+template <typename F>
+auto with_yaml_errors(const std::string& name, F&& f) {
+  try {
+    return f();
+  } catch (const YAML::Exception& e) {
+    throw Error::at(name, e.mark.is_null() ? 0 : e.mark.line + 1, "", e.msg);
+  }
+}
+
+}  // namespace
+
+ConfigDialect detect_dialect(const std::string& text, const std::string& name) {
+  return with_yaml_errors(name, [&] { return detect_dialect_yaml(text, name); });
+}
+
+Config parse_config(const std::string& text, const std::string& name) {
+  return with_yaml_errors(name, [&] { return parse_config_yaml(text, name); });
+}
+
 Config load_config(const std::string& path) { return parse_config(read_text(path), path); }
 
 PinholeCamera load_euroc_camera(const std::string& path, SE3* T_body_camera) {
-  const YAML::Node root = parse_yaml(read_text(path), path);
-  return parse_euroc_camera(Reader{path}, root, T_body_camera);
+  return with_yaml_errors(path, [&] {
+    const YAML::Node root = parse_yaml(read_text(path), path);
+    return parse_euroc_camera(Reader{path}, root, T_body_camera);
+  });
 }
 
 ImuNoise load_euroc_imu(const std::string& path) {
-  const YAML::Node root = parse_yaml(read_text(path), path);
-  return parse_euroc_imu(Reader{path}, root);
+  return with_yaml_errors(path, [&] {
+    const YAML::Node root = parse_yaml(read_text(path), path);
+    return parse_euroc_imu(Reader{path}, root);
+  });
 }
 
 std::string to_yaml(const Calibration& c) {

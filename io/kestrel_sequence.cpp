@@ -293,6 +293,8 @@ std::vector<SequenceObject> parse_objects_json(const std::string& text, const st
   } catch (const nlohmann::json::parse_error& e) {
     throw Error::at(name, line_of_offset(text, e.byte), "",
                     std::string("JSON syntax error: ") + e.what());
+  } catch (const nlohmann::json::exception& e) {  // e.g. a number too large for a double
+    throw Error::at(name, 0, "", std::string("JSON error: ") + e.what());
   }
   if (!j.is_array()) throw Error::at(name, 1, "", "expected a JSON list of objects");
   std::vector<SequenceObject> out;

@@ -264,7 +264,11 @@ std::string format_tum(const Trajectory& trajectory) {
         trajectory.stamps[i], t.x(), t.y(), t.z(), q.x(), q.y(), q.z(), q.w()};
     for (int k = 0; k < 8; ++k) {
       if (k > 0) out += ' ';
+      const std::size_t start = out.size();
       append_number(out, values[k]);
+      // A stamp written as a long integer would read back as EuRoC nanoseconds; TUM stamps are
+      // seconds, so keep a decimal point.
+      if (k == 0 && out.find_first_of(".eEn", start) == std::string::npos) out += ".0";
     }
     out += '\n';
   }

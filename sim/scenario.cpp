@@ -148,8 +148,10 @@ std::string default_assets_dir() {
   return std::string(KESTREL_SOURCE_DIR) + "/../shared/data";
 }
 
-Scenario parse_scenario(const std::string& text, const std::string& name,
-                        const ScenarioOverrides& ov) {
+namespace {
+
+Scenario parse_scenario_yaml(const std::string& text, const std::string& name,
+                             const ScenarioOverrides& ov) {
   YAML::Node root;
   try {
     root = YAML::Load(text);
@@ -392,6 +394,19 @@ Scenario parse_scenario(const std::string& text, const std::string& name,
 
   s.yaml = YAML::Dump(root) + "\n";
   return s;
+}
+
+}  // namespace
+
+Scenario parse_scenario(const std::string& text, const std::string& name,
+                        const ScenarioOverrides& ov) {
+  try {
+    return parse_scenario_yaml(text, name, ov);
+  } catch (const YAML::Exception& e) {
+    // A node of the wrong kind (a list where a map belongs, say) surfaces from yaml-cpp itself;
+    // its mark still names the line.
+    throw Error::at(name, e.mark.is_null() ? 0 : e.mark.line + 1, "", e.msg);
+  }
 }
 
 Scenario load_scenario(const std::string& name_or_path, const ScenarioOverrides& overrides) {

@@ -1,6 +1,8 @@
 // Schema codec: round trips in both encodings, and rejection (never a crash) of bad input.
 #include <gtest/gtest.h>
+
 #include <rapidcheck/gtest.h>
+#include <algorithm>
 
 #include <nlohmann/json.hpp>
 
@@ -123,6 +125,30 @@ TEST(Schema, RejectsAndCountsBadInput) {
   EXPECT_NE(log.front().find("t/empty"), std::string::npos);
   // A valid message still decodes after all that.
   EXPECT_TRUE(d.decode(encode(PoseMsg{})));
+}
+
+// Found by fuzz/telemetry_codec_fuzz.cpp: CBOR text that is not UTF-8 decoded, then threw when
+// the message was written as JSON.
+TEST(Schema, RejectsTextThatIsNotUtf8) {
+  auto d = quiet();
+  StatusMsg s{1, true, "ok", "uav", 29.9, 0.8, 0.95, 100, 2, 1};
+  std::vector<std::uint8_t> cbor = encode(s);
+  const std::vector<std::uint8_t> ok = {'o', 'k'};
+  const auto at = std::search(cbor.begin(), cbor.end(), ok.begin(), ok.end());
+  ASSERT_NE(at, cbor.end());
+  at[0] = 0xc3;  // a lead byte followed by 'k', which is no continuation byte
+  EXPECT_FALSE(d.decode(cbor, "t/utf8"));
+  EXPECT_EQ(d.counts().bad_field, 1u);
+  StatusMsg accented = s;
+  accented.state = "d\xc3\xa9j\xc3\xa0";  // "déjà", valid UTF-8
+  EXPECT_TRUE(d.decode(encode(accented)));
+  DetectionsMsg det{2, {{"person", 3}}, 1};
+  std::vector<std::uint8_t> dcbor = encode(det);
+  const std::vector<std::uint8_t> person = {'p', 'e', 'r', 's', 'o', 'n'};
+  const auto p = std::search(dcbor.begin(), dcbor.end(), person.begin(), person.end());
+  ASSERT_NE(p, dcbor.end());
+  p[0] = 0xff;
+  EXPECT_FALSE(d.decode(dcbor, "t/utf8-label"));
 }
 
 RC_GTEST_PROP(Schema, RandomBytesNeverCrash, (const std::vector<std::uint8_t>& junk)) {

@@ -149,8 +149,9 @@ TEST(Config, ReadsEurocSensorYaml) {
 }
 
 TEST(Config, ErrorsNameFileLineAndField) {
-  EXPECT_EQ(error_of("camera:\n  width: 640\n  height: 480\n  fx: abc\n  fy: 1\n  cx: 1\n  cy: 1\n"),
-            "cfg.yaml:4: field 'camera.fx': expected a number, got 'abc'");
+  EXPECT_EQ(
+      error_of("camera:\n  width: 640\n  height: 480\n  fx: abc\n  fy: 1\n  cx: 1\n  cy: 1\n"),
+      "cfg.yaml:4: field 'camera.fx': expected a number, got 'abc'");
   EXPECT_EQ(error_of("camera:\n  width: 640\n  height: 480\n  fx: -5\n  fy: 1\n  cx: 1\n  cy: 1\n"),
             "cfg.yaml:4: field 'camera.fx': must be positive, got -5");
   EXPECT_NE(error_of("camera:\n  width: 640\n  height: 480\n").find("field 'camera.fx': missing"),
@@ -169,6 +170,28 @@ TEST(Config, ErrorsNameFileLineAndField) {
   } catch (const Error& e) {
     EXPECT_EQ(std::string(e.what()), "/nonexistent/kestrel.yaml: cannot open file");
   }
+}
+
+// Found by fuzz/config_parsers_fuzz.cpp: yaml-cpp's own exceptions escaped for a node of the
+// wrong kind, and an EuRoC camera with a negative size parsed.
+TEST(Config, WrongNodeKindsAndUnusableEurocValuesAreErrors) {
+  EXPECT_NE(error_of("camera: [1, 2, 3]\n").find("cfg.yaml"), std::string::npos);
+  EXPECT_NE(error_of("imu: 5\n").find("cfg.yaml"), std::string::npos);
+  EXPECT_NE(error_of("camera:\n  - width\n  - height\n").find("cfg.yaml"), std::string::npos);
+  const std::string euroc =
+      "sensor_type: camera\nT_BS:\n  cols: 4\n  rows: 4\n  data: [1,0,0,0, 0,1,0,0, 0,0,1,0, "
+      "0,0,0,1]\nresolution: [752, RES]\ncamera_model: pinhole\nintrinsics: [FX, 457.3, 367.2, "
+      "248.4]\ndistortion_model: radial-tangential\ndistortion_coefficients: [0, 0, 0, 0]\n";
+  auto with = [&](const std::string& res, const std::string& fx) {
+    std::string t = euroc;
+    t.replace(t.find("RES"), 3, res);
+    t.replace(t.find("FX"), 2, fx);
+    return t;
+  };
+  EXPECT_EQ(error_of(with("480", "458.6")), "");
+  EXPECT_NE(error_of(with("-480", "458.6")).find("field 'resolution'"), std::string::npos);
+  EXPECT_NE(error_of(with("480.5", "458.6")).find("field 'resolution'"), std::string::npos);
+  EXPECT_NE(error_of(with("480", "0")).find("field 'intrinsics'"), std::string::npos);
 }
 
 TEST(Config, ShippedDefaultConfigLoads) {

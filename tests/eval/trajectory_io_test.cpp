@@ -68,6 +68,18 @@ TEST(TrajectoryIo, TumRoundTripIsExact) {
   }
 }
 
+// Found by fuzz/trajectory_parsers_fuzz.cpp: a TUM stamp that prints as a long integer read
+// back as EuRoC nanoseconds.
+TEST(TrajectoryIo, TumWriterKeepsIntegerStampsInSeconds) {
+  Trajectory t;
+  t.stamps = {13050311021750.0, 13050311021751.0};
+  t.poses = {SE3(), SE3()};
+  const Trajectory again = parse_trajectory(format_tum(t), "mem");
+  ASSERT_EQ(again.size(), 2u);
+  EXPECT_EQ(again.stamps[0], t.stamps[0]);
+  EXPECT_EQ(again.stamps[1], t.stamps[1]);
+}
+
 TEST(TrajectoryIo, MalformedLineNamesFileLineAndField) {
   const std::string msg =
       error_of([] { parse_pose_series("1 0 0 0 0 0 0 1\n2 0 0 x 0 0 0 1\n", "traj.txt"); });

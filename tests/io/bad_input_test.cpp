@@ -126,5 +126,16 @@ TEST(BadInput, KestrelImuCsvAndBoxes) {
                      {(dir / "boxes.csv").string() + ":2", "moving"});
 }
 
+// Found by fuzz/dataset_parsers_fuzz.cpp: a number too large for a double escaped as a
+// nlohmann exception.
+TEST(BadInput, ObjectsJsonWithANumberOutOfRange) {
+  test::expect_error(
+      [] {
+        parse_objects_json(R"([{"id": 1, "label": "chair", "center": [1e999, 0, 0]}])",
+                           "objects.json");
+      },
+      {"objects.json", "JSON"});
+}
+
 }  // namespace
 }  // namespace kestrel::io
