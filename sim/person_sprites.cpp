@@ -8,6 +8,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "core/error.hpp"
+#include "sim/photo_cutouts.hpp"
 
 namespace kestrel::sim {
 namespace {
@@ -85,6 +86,15 @@ std::vector<Sprite> load_person_sprites(const std::string& assets_dir) {
       const cv::Rect box(stats.at<int>(i, cv::CC_STAT_LEFT), stats.at<int>(i, cv::CC_STAT_TOP),
                          stats.at<int>(i, cv::CC_STAT_WIDTH), stats.at<int>(i, cv::CC_STAT_HEIGHT));
       sprites.push_back(cut(rgb, labels == i, box, mirror));
+    }
+  }
+  // Then the people of the photos (no masks: grabCut cuts them), each also mirrored, so that
+  // the walkers differ in clothes, pose and view and not only in the TUM pair.
+  for (const std::string& name : cutout_names()) {
+    if (name.rfind("person-", 0) != 0) continue;
+    for (bool mirror : {false, true}) {
+      Cutout c = load_cutout(assets_dir, name, mirror);
+      sprites.push_back({std::move(c.texture), c.aspect});
     }
   }
   return sprites;
