@@ -1,5 +1,6 @@
 #include "sim/scenario.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
@@ -11,6 +12,7 @@
 
 #include "core/error.hpp"
 #include "sim/builtin_scenarios.hpp"
+#include "sim/photo_cutouts.hpp"
 
 namespace kestrel::sim {
 namespace {
@@ -112,6 +114,19 @@ class Reader {
     for (double c : v)
       if (c < 0 || c > 255) fail(n, where + key, "colour components must be in 0..255");
     return {static_cast<int>(v[0]), static_cast<int>(v[1]), static_cast<int>(v[2])};
+  }
+  // A vehicle cut-out's name, checked against the table so that a typo names the line.
+  std::string vehicle_photo(const YAML::Node& map, const std::string& where) const {
+    const std::string name = text(map, "photo", "", where);
+    if (name.empty()) return name;
+    const auto& names = cutout_names();
+    if (name.rfind("car-", 0) != 0 || std::find(names.begin(), names.end(), name) == names.end()) {
+      std::string known;
+      for (const auto& n : names)
+        if (n.rfind("car-", 0) == 0) known += (known.empty() ? "" : ", ") + n;
+      fail(map["photo"], where + "photo", "unknown vehicle cut-out '" + name + "' (" + known + ")");
+    }
+    return name;
   }
   TextureSpec texture(const YAML::Node& map, const char* key, TextureSpec def,
                       const std::string& where, const std::string& assets) const {
@@ -274,7 +289,7 @@ Scenario parse_scenario_yaml(const std::string& text, const std::string& name,
     if (!list.IsSequence()) r.fail(list, "world.objects", "expected a list");
     for (std::size_t i = 0; i < list.size(); ++i) {
       const std::string w = "world.objects[" + std::to_string(i) + "].";
-      r.allow(list[i], w, {"label", "center", "size", "yaw_deg", "texture"});
+      r.allow(list[i], w, {"label", "center", "size", "yaw_deg", "texture", "photo"});
       ObjectSpec o;
       o.label = r.text(list[i], "label", "", w);
       if (o.label.empty())
@@ -290,6 +305,7 @@ Scenario parse_scenario_yaml(const std::string& text, const std::string& name,
       wood.color_b = {95, 62, 38};
       wood.scale = 1.0;
       o.texture = r.texture(list[i], "texture", wood, w, s.assets);
+      o.photo = r.vehicle_photo(list[i], w);
       s.objects.push_back(o);
     }
   }
@@ -311,21 +327,27 @@ Scenario parse_scenario_yaml(const std::string& text, const std::string& name,
       const std::string w = "movers[" + std::to_string(i) + "].";
       const YAML::Node m = list[i];
       r.allow(m, w,
-              {"type", "label", "sprite", "path", "speed", "start", "stop", "mode", "height",
-               "size", "center", "yaw_deg", "rate_deg", "texture"});
+              {"type", "label", "sprite", "photo", "path", "speed", "start", "stop", "mode",
+               "height", "size", "center", "yaw_deg", "rate_deg", "flap_hz", "texture"});
       MoverSpec mv;
       mv.type = r.text(m, "type", "person", w);
       if (mv.type != "person" && mv.type != "vehicle" && mv.type != "box" && mv.type != "chair" &&
-          mv.type != "spin") {
+          mv.type != "spin" && mv.type != "bird") {
         r.fail(m["type"], w + "type",
-               "unknown mover type '" + mv.type + "' (person, vehicle, box, chair, spin)");
+               "unknown mover type '" + mv.type + "' (person, vehicle, box, chair, spin, bird)");
       }
       const std::string default_label = mv.type == "person"    ? "person"
                                         : mv.type == "vehicle" ? "car"
                                         : mv.type == "box"     ? "box"
+                                        : mv.type == "bird"    ? "bird"
                                                                : "chair";
       mv.label = r.text(m, "label", default_label, w);
       mv.sprite = static_cast<int>(r.get(m, "sprite", 0, w));
+      if (mv.sprite < 0) r.fail(m["sprite"], w + "sprite", "must be >= 0");
+      mv.photo = r.vehicle_photo(m, w);
+      if (!mv.photo.empty() && mv.type != "vehicle")
+        r.fail(m["photo"], w + "photo", "only a vehicle carries a photo");
+      mv.flap_hz = r.positive(m, "flap_hz", mv.flap_hz, w);
       mv.speed = r.get(m, "speed", mv.speed, w);
       mv.start = r.get(m, "start", 0.0, w);
       mv.stop = r.get(m, "stop", -1.0, w);
@@ -335,6 +357,7 @@ Scenario parse_scenario_yaml(const std::string& text, const std::string& name,
       mv.height = r.positive(m, "height", 1.75, w);
       const Vec3 def_size = mv.type == "vehicle"                      ? Vec3(4.2, 1.8, 1.5)
                             : mv.type == "chair" || mv.type == "spin" ? Vec3(0.5, 0.5, 0.95)
+                            : mv.type == "bird"                       ? Vec3(0.35, 0.8, 0.12)
                                                                       : Vec3(0.5, 0.5, 0.5);
       mv.size = r.vec3(m, "size", def_size, w);
       mv.center = r.vec3(m, "center", Vec3::Zero(), w);
@@ -344,6 +367,9 @@ Scenario parse_scenario_yaml(const std::string& text, const std::string& name,
       def_tex.style = mv.type == "vehicle" ? "car" : mv.type == "box" ? "posters" : "wood";
       if (def_tex.style == "wood") def_tex.color_a = {150, 105, 65}, def_tex.color_b = {95, 62, 38};
       if (mv.type == "vehicle") def_tex.color_a = {170, 30, 30};
+      if (mv.type == "bird") {  // a pigeon's grey with darker bars
+        def_tex = TextureSpec{"noise", {120, 122, 130}, {55, 55, 62}, 0.3, 1.0, 64, ""};
+      }
       mv.texture = r.texture(m, "texture", def_tex, w, s.assets);
       if (m["path"].IsDefined()) {
         const YAML::Node p = m["path"];

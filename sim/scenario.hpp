@@ -40,6 +40,7 @@ struct ObjectSpec {  // a labelled static object with a known 3D box
   Vec3 size = Vec3::Ones();
   double yaw = 0.0;
   TextureSpec texture;
+  std::string photo;  // a vehicle cut-out (photo_cutouts.hpp): a parked car shaped like it
 };
 
 struct LightZone {  // a region where surfaces get less (or more) light: a shadowed corridor
@@ -49,16 +50,18 @@ struct LightZone {  // a region where surfaces get less (or more) light: a shado
 };
 
 struct MoverSpec {
-  std::string type = "person";  // person | vehicle | box | chair | spin
+  std::string type = "person";  // person | vehicle | box | chair | spin | bird
   std::string label = "person";
-  int sprite = 0;                   // person: which cut-out
-  std::vector<Vec3> path;           // person/vehicle/box/chair: way points (z = ground)
+  int sprite = 0;                   // person: which cut-out (person_sprites.hpp)
+  std::string photo;                // vehicle: cut-out for its sides; empty: painted box
+  std::vector<Vec3> path;           // way points (z = ground; bird: flying height)
   double speed = 1.2;               // m/s along the path
   double start = 0.0;               // s: static before
   double stop = -1.0;               // s: static after (negative: never)
   std::string mode = "loop";        // loop | pingpong | once
   double height = 1.75;             // person
-  Vec3 size = Vec3(0.5, 0.5, 0.5);  // vehicle/box/chair/spin
+  Vec3 size = Vec3(0.5, 0.5, 0.5);  // vehicle/box/chair/spin; bird: length, wingspan, body
+  double flap_hz = 4.0;             // bird: wing beats per second
   Vec3 center = Vec3::Zero();       // spin: where it turns
   double yaw = 0.0;                 // spin: initial yaw
   double rate = 1.0;                // spin: rad/s

@@ -1,5 +1,6 @@
 #include "sim/world.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include <Eigen/Geometry>
@@ -10,10 +11,110 @@ namespace kestrel::sim {
 namespace {
 
 constexpr float kTile = 1.0f;  // metres: large faces are split so perspective stays accurate
+// Silhouette samples along a vehicle photo: enough for bonnet, windscreen, roof and boot.
+constexpr int kVehicleColumns = 16;
 
 Vec3f f3(const Vec3& v) { return v.cast<float>(); }
 
+// Texture coordinates at exactly 0 or 1 would wrap to the opposite edge of a cut-out.
+Vec2f inside_uv(float u, float v) {
+  return Vec2f(std::clamp(u, 0.002f, 0.998f), std::clamp(v, 0.002f, 0.998f));
+}
+
+// A bird flying at `center` (its body's centre) heading `yaw`: body, head, tail and two wings
+// raised by `flap` radians about the body's long axis. Wings and tail are thin plates drawn
+// from both sides (the rasterizer culls back faces).
+void add_bird(Mesh& mesh, const Vec3f& center, const Vec3f& size, float yaw, float flap,
+              int texture, std::uint16_t instance) {
+  const Eigen::Matrix3f R = Eigen::AngleAxisf(yaw, Vec3f::UnitZ()).toRotationMatrix();
+  const float len = size.x(), span = size.y(), body = size.z();
+  const auto at = [&](float x, float y, float z) { return Vec3f(center + R * Vec3f(x, y, z)); };
+  const auto plate = [&](const Vec3f& a, const Vec3f& b, const Vec3f& c, const Vec3f& d) {
+    add_quad(mesh, a, b, c, d, Vec2f::Zero(), 0.3f, texture, instance, kTile);
+    add_quad(mesh, d, c, b, a, Vec2f::Zero(), 0.3f, texture, instance, kTile);
+  };
+  add_box(mesh, center, Vec3f(len, body, body), yaw, texture, instance, 0.3f, kTile,
+          BoxFaces{false, false, false});
+  const float head = 0.6f * body;
+  add_box(mesh, at(0.5f * len + 0.5f * head, 0, 0.25f * body), Vec3f(head, head, head), yaw,
+          texture, instance, 0.3f, kTile, BoxFaces{false, false, false});
+  plate(at(-0.5f * len, -0.3f * body, 0), at(-0.5f * len, 0.3f * body, 0),
+        at(-0.9f * len, 0.6f * body, 0), at(-0.9f * len, -0.6f * body, 0));
+  const float reach = std::max(0.05f, 0.5f * span - 0.5f * body);
+  const float c = std::cos(flap), s = std::sin(flap);
+  for (float side : {-1.f, 1.f}) {
+    // Root chord along the body, a narrower chord swept back at the tip.
+    const auto wing = [&](float x, float r) { return at(x, side * (0.5f * body + r * c), r * s); };
+    plate(wing(-0.3f * len, 0), wing(0.25f * len, 0), wing(-0.05f * len, reach),
+          wing(-0.35f * len, reach));
+  }
+}
+
 }  // namespace
+
+void add_photo_vehicle(Mesh& mesh, const VehicleLook& look, const Vec3f& base, const Vec3f& size,
+                       float yaw, int glass, std::uint16_t instance) {
+  const Eigen::Matrix3f R = Eigen::AngleAxisf(yaw, Vec3f::UnitZ()).toRotationMatrix();
+  const float L = size.x(), W = size.y(), H = size.z();
+  const auto at = [&](float x, float y, float z) { return Vec3f(base + R * Vec3f(x, y, z)); };
+  // The photo's u runs from its left to its right edge; the vehicle's x points forward.
+  const auto x_of = [&](float u) { return look.front_left ? 0.5f * L - u * L : -0.5f * L + u * L; };
+  const int n = static_cast<int>(look.top.size());
+
+  // Both sides show the cut-out, one strip per column (the mip level is chosen per triangle,
+  // so narrow strips keep it right when the side is seen at a slant). The far side mirrors
+  // itself: the front stays at the front.
+  for (float side : {1.f, -1.f}) {
+    const float shade = face_shade(R * Vec3f(0, side, 0));
+    for (int c = 0; c < n; ++c) {
+      float ua = static_cast<float>(c) / n, ub = static_cast<float>(c + 1) / n;
+      float xa = x_of(ua), xb = x_of(ub);
+      // Counter-clockwise seen from outside: along the bottom edge x falls on the +y side.
+      if ((side > 0) != (xa > xb)) std::swap(xa, xb), std::swap(ua, ub);
+      const float y = 0.5f * side * W;
+      const Vertex v0{at(xa, y, 0), inside_uv(ua, 1)}, v1{at(xb, y, 0), inside_uv(ub, 1)};
+      const Vertex v2{at(xb, y, H), inside_uv(ub, 0)}, v3{at(xa, y, H), inside_uv(ua, 0)};
+      mesh.push_back(Triangle{{v0, v1, v2}, look.side_texture, instance, shade});
+      mesh.push_back(Triangle{{v0, v2, v3}, look.side_texture, instance, shade});
+    }
+  }
+  // The silhouette's top edge swept across the width: bonnet, windscreen, roof, boot, from the
+  // rear (smallest x) forward so that every strip faces up.
+  struct Point {
+    float x, top, bottom;  // metres: x forward, top and bottom heights
+  };
+  std::vector<Point> profile;
+  for (int c = 0; c < n; ++c) {
+    const std::size_t i = static_cast<std::size_t>(c);
+    if (look.top[i] >= look.bottom[i]) continue;  // an empty column
+    const float u = (c + 0.5f) / n;
+    const Point p{x_of(u), H * (1 - look.top[i]), H * (1 - look.bottom[i])};
+    // The edge columns reach the ends of the body.
+    if (profile.empty()) profile.push_back({x_of(0), p.top, p.bottom});
+    profile.push_back(p);
+  }
+  if (profile.empty()) return;
+  profile.push_back({x_of(1), profile.back().top, profile.back().bottom});
+  std::sort(profile.begin(), profile.end(),
+            [](const Point& a, const Point& b) { return a.x < b.x; });
+  const float hw = 0.5f * W;
+  for (std::size_t k = 0; k + 1 < profile.size(); ++k) {
+    const Point &a = profile[k], &b = profile[k + 1];
+    if (b.x - a.x < 1e-4f) continue;
+    // Steep strips in the upper half are the windscreen and the rear window.
+    const bool window =
+        std::fabs(b.top - a.top) > 0.6f * (b.x - a.x) && std::min(a.top, b.top) > 0.5f * H;
+    add_quad(mesh, at(a.x, -hw, a.top), at(b.x, -hw, b.top), at(b.x, hw, b.top), at(a.x, hw, a.top),
+             Vec2f::Zero(), 1.0f, window ? glass : look.paint_texture, instance, kTile);
+  }
+  const Point &rear = profile.front(), &front = profile.back();
+  add_quad(mesh, at(front.x, -hw, front.bottom), at(front.x, hw, front.bottom),
+           at(front.x, hw, front.top), at(front.x, -hw, front.top), Vec2f::Zero(), 1.0f,
+           look.paint_texture, instance, kTile);
+  add_quad(mesh, at(rear.x, hw, rear.bottom), at(rear.x, -hw, rear.bottom),
+           at(rear.x, -hw, rear.top), at(rear.x, hw, rear.top), Vec2f::Zero(), 1.0f,
+           look.paint_texture, instance, kTile);
+}
 
 void add_furniture(Mesh& mesh, const std::string& label, const Vec3f& base, const Vec3f& size,
                    float yaw, int texture, std::uint16_t instance) {
@@ -42,6 +143,24 @@ void add_furniture(Mesh& mesh, const std::string& label, const Vec3f& base, cons
     add_box(mesh, base + Vec3f(0, 0, 0.5f * sz), size, yaw, texture, instance, 0.6f, kTile,
             BoxFaces{false, true, false});
   }
+}
+
+int World::look(const std::string& name, const std::string& assets, std::uint64_t seed) {
+  for (std::size_t i = 0; i < looks_.size(); ++i)
+    if (looks_[i].name == name) return static_cast<int>(i);
+  Cutout c = load_cutout(assets, name, false, kVehicleColumns);
+  VehicleLook v;
+  v.name = name;
+  v.side_texture = add_texture(std::move(c.texture));
+  // Paint of the photo's colour with a little grain, so roof and ends carry some features.
+  const std::array<int, 3> dark{c.paint[0] * 3 / 4, c.paint[1] * 3 / 4, c.paint[2] * 3 / 4};
+  v.paint_texture =
+      add_texture(make_texture(TextureSpec{"noise", c.paint, dark, 1.0, 0.4, 64, ""}, seed));
+  v.top = std::move(c.top);
+  v.bottom = std::move(c.bottom);
+  v.front_left = c.front_left;
+  looks_.push_back(std::move(v));
+  return static_cast<int>(looks_.size()) - 1;
 }
 
 int World::add_texture(Texture t) {
@@ -85,12 +204,24 @@ World::World(const Scenario& sc) : movers_(sc.movers), lights_(sc.lights) {
     add_box(static_mesh_, f3(b.center), f3(b.size), static_cast<float>(b.yaw), tex, 0,
             static_cast<float>(b.texture.scale), kTile, BoxFaces{b.inward, true, false});
   }
+  TextureSpec glass{"noise", {35, 40, 50}, {70, 80, 95}, 1.0, 0.5, 64, ""};
+  const auto glass_texture = [&] {
+    if (glass_texture_ < 0) glass_texture_ = add_texture(make_texture(glass, seed_for(++k)));
+    return glass_texture_;
+  };
   int j = 0;
   for (const ObjectSpec& o : sc.objects) {
     const int tex = add_texture(make_texture(o.texture, seed_for(++k)));
     const auto id = static_cast<std::uint16_t>(kFirstObjectId + j);
     const Vec3f base = f3(o.center) - Vec3f(0, 0, 0.5f * static_cast<float>(o.size.z()));
-    add_furniture(static_mesh_, o.label, base, f3(o.size), static_cast<float>(o.yaw), tex, id);
+    if (!o.photo.empty()) {
+      const int g = glass_texture();
+      const VehicleLook& v =
+          looks_[static_cast<std::size_t>(look(o.photo, sc.assets, seed_for(++k)))];
+      add_photo_vehicle(static_mesh_, v, base, f3(o.size), static_cast<float>(o.yaw), g, id);
+    } else {
+      add_furniture(static_mesh_, o.label, base, f3(o.size), static_cast<float>(o.yaw), tex, id);
+    }
     objects_.push_back({id, o.label, o.center, o.size, o.yaw});
     ++j;
   }
@@ -104,14 +235,14 @@ World::World(const Scenario& sc) : movers_(sc.movers), lights_(sc.lights) {
       sprite_texture_.push_back(add_texture(std::move(s.texture)));
     }
   }
-  TextureSpec glass{"noise", {35, 40, 50}, {70, 80, 95}, 1.0, 0.5, 64, ""};
   for (const MoverSpec& m : movers_) {
+    mover_look_.push_back(-1);
     if (m.type == "person") {
       mover_texture_.push_back(-1);
       continue;
     }
-    if (m.type == "vehicle" && glass_texture_ < 0)
-      glass_texture_ = add_texture(make_texture(glass, seed_for(++k)));
+    if (m.type == "vehicle") glass_texture();
+    if (!m.photo.empty()) mover_look_.back() = look(m.photo, sc.assets, seed_for(++k));
     TextureSpec spec = m.texture;
     if (spec.style == "car") spec.style = "noise";  // paint; the cabin carries the windows
     mover_texture_.push_back(add_texture(make_texture(spec, seed_for(++k))));
@@ -158,6 +289,14 @@ void World::mover_mesh(double t, const Vec3& camera_position, Mesh& out,
       for (std::size_t k = out.size() - 2; k < out.size(); ++k)
         for (Vertex& v : out[k].v)
           v.uv = v.uv.cwiseMax(Vec2f(0.002f, 0.002f)).cwiseMin(Vec2f(0.998f, 0.998f));
+    } else if (m.type == "vehicle" && mover_look_[i] >= 0) {
+      add_photo_vehicle(out, looks_[static_cast<std::size_t>(mover_look_[i])], p, f3(m.size), yaw,
+                        glass_texture_, id);
+    } else if (m.type == "bird") {
+      // Wings beat while it flies and are held half raised while it waits or glides to a stop.
+      const double beat = 2.0 * M_PI * m.flap_hz * t;
+      const float flap = pose.moving ? static_cast<float>(0.65 * std::sin(beat)) : 0.3f;
+      add_bird(out, p, f3(m.size), yaw, flap, mover_texture_[i], id);
     } else if (m.type == "vehicle") {
       const Vec3f sz = f3(m.size);
       const float body_h = 0.55f * sz.z();

@@ -11,6 +11,7 @@
 #include "sim/mesh.hpp"
 #include "sim/mover_path.hpp"
 #include "sim/person_sprites.hpp"
+#include "sim/photo_cutouts.hpp"
 #include "sim/scenario.hpp"
 #include "sim/texture.hpp"
 
@@ -28,6 +29,22 @@ struct StaticObject {
   double yaw = 0.0;
 };
 
+// A vehicle built from a side photo: the photo's silhouette, extruded across the width, gives
+// the body (roof, bonnet, windscreen, ends); both sides show the cut-out.
+struct VehicleLook {
+  std::string name;
+  int side_texture = -1;      // the cut-out (alpha)
+  int paint_texture = -1;     // the photo's body colour, for roof and ends
+  std::vector<float> top;     // silhouette top per column, fraction of the height from the top
+  std::vector<float> bottom;  // and bottom
+  bool front_left = true;     // the photo shows the front at its left
+};
+
+// Adds a photographic vehicle of `size` (length, width, height) standing at `base` (ground
+// centre), heading `yaw`. glass: texture of windscreen and rear window.
+void add_photo_vehicle(Mesh& mesh, const VehicleLook& look, const Vec3f& base, const Vec3f& size,
+                       float yaw, int glass, std::uint16_t instance);
+
 class World {
  public:
   // Builds every texture (deterministic in the scenario's seed). Throws kestrel::Error when an
@@ -39,8 +56,8 @@ class World {
   const std::vector<StaticObject>& objects() const { return objects_; }
   const std::vector<MoverSpec>& movers() const { return movers_; }
 
-  // The movers at time t; people turn to face camera_position (they are flat cut-outs).
-  // moving[i] tells whether mover i moves at t.
+  // The movers at time t; people turn to face camera_position (they are flat cut-outs), birds
+  // beat their wings. moving[i] tells whether mover i moves at t.
   void mover_mesh(double t, const Vec3& camera_position, Mesh& out,
                   std::vector<bool>& moving) const;
 
@@ -57,6 +74,10 @@ class World {
   std::vector<int> sprite_texture_;
   std::vector<double> sprite_aspect_;
   int glass_texture_ = -1;
+  std::vector<VehicleLook> looks_;  // photographic vehicles, by cut-out
+  std::vector<int> mover_look_;     // per mover: index in looks_, or -1
+  // Returns the index in looks_ of vehicle cut-out `name`, loading it on first use.
+  int look(const std::string& name, const std::string& assets, std::uint64_t seed);
 };
 
 // Furniture shapes shared by static objects and movers: a chair (seat, back, legs) or table

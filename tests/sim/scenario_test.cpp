@@ -1,11 +1,13 @@
 // Scenario files: every built-in parses, overrides apply, and bad input names file, line, field.
 #include <gtest/gtest.h>
 
+#include <filesystem>
 #include <string>
 
 #include "core/error.hpp"
 #include "sim/builtin_scenarios.hpp"
 #include "sim/scenario.hpp"
+#include "sim/world.hpp"
 
 namespace kestrel::sim {
 namespace {
@@ -69,6 +71,41 @@ TEST(Scenario, BadInputNamesFileLineAndField) {
                 .find("world.objects[0].label"),
             std::string::npos);
   EXPECT_THROW(load_scenario("no-such-scenario"), Error);
+  // A vehicle photo must be one of the cut-outs, and only vehicles carry one.
+  const std::string bad_photo =
+      error_of(base + "movers:\n  - {type: vehicle, photo: car-purple, path: [[0, 0]]}\n");
+  EXPECT_NE(bad_photo.find("bad.yaml:4: field 'movers[0].photo'"), std::string::npos) << bad_photo;
+  EXPECT_NE(bad_photo.find("car-red-wagon"), std::string::npos) << "lists the known cut-outs";
+  EXPECT_NE(error_of(base + "movers:\n  - {type: box, photo: car-red-wagon, path: [[0, 0]]}\n")
+                .find("field 'movers[0].photo'"),
+            std::string::npos);
+  EXPECT_NE(error_of(base + "world:\n  objects:\n    - {label: car, photo: person-blue-jacket}\n")
+                .find("field 'world.objects[0].photo'"),
+            std::string::npos);
+}
+
+// The photos are read at run time from the shared folder: a missing one is an error that
+// names the file, for people and for vehicles.
+TEST(Scenario, MissingPhotoNamesTheFile) {
+  const auto dir = std::filesystem::temp_directory_path() / "kestrel_no_assets";
+  std::filesystem::create_directories(dir / "images");
+  const std::string head =
+      "assets: " + dir.string() + "\ntrajectory:\n  waypoints: [[0, 0, 1, 0]]\n";
+  try {
+    World w(parse_scenario(head + "movers:\n  - {type: vehicle, photo: car-white-pickup, "
+                                  "path: [[0, 0]]}\n",
+                           "v.yaml"));
+    ADD_FAILURE() << "no error for a missing photo";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find((dir / "images" / "dog.jpg").string()), std::string::npos)
+        << e.what();
+  }
+  try {
+    World w(parse_scenario(head + "movers:\n  - {type: person, path: [[0, 0]]}\n", "p.yaml"));
+    ADD_FAILURE() << "no error for missing person photos";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find(dir.string()), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace

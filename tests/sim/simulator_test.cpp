@@ -29,6 +29,9 @@ movers:
   - {type: box, label: box, path: [[4, -1], [4, 1]], speed: 0.5, size: [0.5, 0.5, 0.5]}
   - {type: spin, center: [1.8, 1.4, 0], rate_deg: 90}
   - {type: chair, path: [[2.8, -1.2], [2.8, -0.2]], start: 0.5, speed: 0.4, mode: once}
+  - {type: person, sprite: 4, path: [[3.5, 1.5], [3.5, -1.5]], speed: 0.8, mode: pingpong}
+  - {type: vehicle, photo: car-red-wagon, path: [[4.0, 2.5], [4.0, -2.5]], speed: 2.0, mode: pingpong, size: [4.0, 1.8, 1.5]}
+  - {type: bird, path: [[2.0, -1.5, 1.6], [2.5, 1.5, 1.9]], speed: 2.0, mode: pingpong, size: [0.35, 0.8, 0.12]}
 trajectory:
   kind: handheld
   segment_time: 0.8
@@ -146,6 +149,33 @@ TEST(Simulator, MovingFlagsFollowTheSchedule) {
   };
   EXPECT_EQ(moving_of(3, 5), 0);
   EXPECT_EQ(moving_of(30, 5), 1);
+}
+
+// The bird (mover 8) flies above the floor, is flagged moving, and beats its wings: its box
+// changes height from frame to frame even where its path is level.
+TEST(Simulator, BirdFliesFlapsAndIsInMasksAndBoxes) {
+  Simulator sim(small());
+  const int bird = 8;
+  ASSERT_EQ(sim.world().movers()[bird - 1].type, "bird");
+  std::vector<int> heights;
+  for (int k = 0; k < sim.frame_count(); k += 2) {
+    const SimFrame f = sim.render(k);
+    for (const SimBox& b : f.boxes) {
+      if (b.instance != bird) continue;
+      EXPECT_EQ(b.label, "bird");
+      EXPECT_TRUE(b.moving);
+      EXPECT_GT(b.pixels, 0);
+      heights.push_back(b.y_max - b.y_min);
+      // Its pixels carry its id in the mask, and the mask holds exactly its box's count.
+      int n = 0;
+      for (int y = b.y_min; y < b.y_max; ++y)
+        for (int x = b.x_min; x < b.x_max; ++x) n += f.mask.row<std::uint16_t>(y)[x] == bird;
+      EXPECT_EQ(n, b.pixels);
+    }
+  }
+  ASSERT_GT(heights.size(), 10u) << "the bird should be in view most of the run";
+  const auto [lo, hi] = std::minmax_element(heights.begin(), heights.end());
+  EXPECT_GT(*hi - *lo, 5) << "wings do not beat";
 }
 
 TEST(Simulator, MotionBlurSmearsColourButKeepsTheTruth) {
