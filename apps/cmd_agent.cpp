@@ -23,6 +23,9 @@ struct AgentFlags {
   std::string source;
   double duration = 0.0;
   bool fast = false;
+  std::string video = "640x480";
+  int video_kbps = 0;
+  int video_fps = 30;
 };
 
 void setup_agent(CLI::App& app) {
@@ -41,6 +44,15 @@ void setup_agent(CLI::App& app) {
   cmd->add_option("--duration", flags->duration, "seconds of the source to replay (0: all)")
       ->check(CLI::Range(0.0, 36000.0));
   cmd->add_flag("--fast", flags->fast, "replay as fast as possible instead of at sensor rate");
+  cmd->add_option("--video", flags->video,
+                  "WebRTC video to the station page: WIDTHxHEIGHT (640x480, 1280x720) | off")
+      ->capture_default_str();
+  cmd->add_option("--video-kbps", flags->video_kbps,
+                  "video bitrate target and ceiling, kbit/s (0: 3000 at 720p, scaled by pixels)")
+      ->check(CLI::Range(0, 50000));
+  cmd->add_option("--video-fps", flags->video_fps, "frame rate the encoder budgets for")
+      ->check(CLI::Range(1, 120))
+      ->capture_default_str();
   cmd->callback([flags] {
     namespace fs = std::filesystem;
     kestrel::comm::AgentRunOptions opt;
@@ -54,6 +66,13 @@ void setup_agent(CLI::App& app) {
     }
     opt.duration_s = flags->duration;
     opt.realtime = !flags->fast;
+    if (flags->video != "off") {
+      kestrel::comm::VideoOptions video;
+      kestrel::comm::parse_video_size(flags->video, "--video", video);
+      video.kbps = flags->video_kbps;
+      video.fps = flags->video_fps;
+      opt.video = video;
+    }
 
     std::string spec = flags->source;
     std::string rendered;
@@ -86,6 +105,15 @@ void setup_agent(CLI::App& app) {
         static_cast<unsigned long long>(s.link.commands_executed),
         static_cast<unsigned long long>(s.link.commands_duplicate),
         static_cast<unsigned long long>(s.mqtt.sent), s.wall_seconds);
+    if (s.video_on) {
+      std::printf(
+          "agent %s video: %llu viewers served, %llu offers, %llu answers, %llu signaling "
+          "messages rejected\n",
+          flags->id.c_str(), static_cast<unsigned long long>(s.video.viewers_created),
+          static_cast<unsigned long long>(s.video.offers),
+          static_cast<unsigned long long>(s.video.answers),
+          static_cast<unsigned long long>(s.video.rejected_total()));
+    }
   });
 }
 

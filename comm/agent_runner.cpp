@@ -10,6 +10,7 @@
 
 #include "comm/grid_delta.hpp"
 #include "comm/telemetry_observer.hpp"
+#include "comm/webrtc_link.hpp"
 #include "io/trajectory_io.hpp"
 #include "maps/grid_io.hpp"
 #include "maps/map_builder.hpp"
@@ -52,6 +53,33 @@ class KeyframeCollector : public pipeline::Observer {
   std::deque<std::pair<Timestamp, SE3>> keyframes_;
   SE3 first_pose_, last_pose_;
   bool have_first_ = false;
+};
+
+// The tracker's view of the latest frame, for viewers that asked for an overlay. It lags the
+// frame being sent by the tracking latency; waiting for it would add that latency to the video.
+class OverlayCollector : public pipeline::Observer {
+ public:
+  void on_frame(const pipeline::FrameReport& r) override {
+    VideoOverlay o;
+    o.state = tracking::to_string(r.state);
+    for (const auto& b : r.boxes) o.boxes.push_back({b.x_min, b.y_min, b.x_max, b.y_max});
+    o.features.reserve(r.feature_px.size());
+    for (std::size_t i = 0; i < r.feature_px.size(); ++i) {
+      o.features.push_back({static_cast<float>(r.feature_px[i].x()),
+                            static_cast<float>(r.feature_px[i].y()),
+                            i < r.feature_dynamic.size() && r.feature_dynamic[i] != 0});
+    }
+    std::lock_guard lock(mutex_);
+    last_ = std::move(o);
+  }
+  VideoOverlay latest() const {
+    std::lock_guard lock(mutex_);
+    return last_;
+  }
+
+ private:
+  mutable std::mutex mutex_;
+  VideoOverlay last_;
 };
 
 GridState to_state(const maps::OccupancyGrid& g, std::uint32_t seq) {
@@ -143,6 +171,18 @@ AgentRunSummary run_agent(io::MeasurementSource& source, const AgentRunOptions& 
   TelemetryObserver telemetry(link);
   system.add_observer(&telemetry);
   system.add_observer(&keyframes);
+  OverlayCollector overlay;
+  std::unique_ptr<WebRtcVideoLink> video;
+  if (options.video) {
+    try {
+      video = std::make_unique<WebRtcVideoLink>(options.link, *options.video);
+      system.add_observer(&overlay);
+      video->start();
+    } catch (const std::exception& e) {
+      // Telemetry and commands matter more than pictures: run on without video, loudly.
+      std::fprintf(stderr, "kestrel agent: video off: %s\n", e.what());
+    }
+  }
   link.start();
   if (!link.wait_connected(std::chrono::seconds(10))) {
     std::fprintf(stderr,
@@ -218,6 +258,10 @@ AgentRunSummary run_agent(io::MeasurementSource& source, const AgentRunOptions& 
     }
     if (const auto* f = std::get_if<RgbdFrame>(&*m)) {
       ++summary.frames;
+      if (video) {
+        const VideoOverlay o = overlay.latest();
+        video->sender().push_frame(f->color, wall_clock_ns(), &o);
+      }
       recent.push_back(*f);
       if (recent.size() > 16) recent.pop_front();
       if (options.progress && summary.frames % 100 == 0) {
@@ -243,6 +287,10 @@ AgentRunSummary run_agent(io::MeasurementSource& source, const AgentRunOptions& 
   summary.paths_published = paths;
   summary.link = link.counts();
   summary.mqtt = link.client().stats();
+  if (video) {
+    summary.video = video->sender().stats();
+    summary.video_on = true;
+  }
   summary.wall_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
   return summary;

@@ -3,10 +3,13 @@
 // its telemetry (pose 30 Hz, status 1 Hz, occupancy-grid deltas from its own keyframes) and
 // executes the station's commands: pause / resume, goal and return-home (A* on the agent's
 // grid -> published path), save map (trajectory + grid). Teleop is refused: a replayed
-// recording cannot be steered.
+// recording cannot be steered. With video on, each camera frame also goes to the agent's
+// WebRTC viewers (comm/webrtc_link.hpp) the moment it is fed, stamped with that wall-clock time.
+#include <optional>
 #include <string>
 
 #include "comm/agent_link.hpp"
+#include "comm/webrtc_sender.hpp"
 #include "io/measurement_source.hpp"
 
 namespace kestrel::comm {
@@ -19,6 +22,7 @@ struct AgentRunOptions {
   int grid_keyframe_every = 10;  // every n-th grid message is a full keyframe (late joiners)
   double robot_radius = 0.25;    // metres, for planning
   bool progress = true;
+  std::optional<VideoOptions> video;  // nullopt: no video
 };
 
 struct AgentRunSummary {
@@ -30,6 +34,8 @@ struct AgentRunSummary {
   std::uint64_t paths_published = 0;
   AgentLinkCounts link;
   MqttStats mqtt;
+  WebRtcStats video;  // empty without video
+  bool video_on = false;
   double wall_seconds = 0.0;
 };
 

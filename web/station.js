@@ -1,6 +1,8 @@
 // Kestrel ground station page: talks MQTT over the broker's WebSocket listener (MQTT.js), decodes
 // the telemetry schema v1 (comm/SCHEMA.md: agents send CBOR; commands go out as JSON, which every
-// decoder accepts), draws the agents on a 2D map and sends goals, teleop and pings.
+// decoder accepts), draws the agents on a 2D map and sends goals, teleop and pings. Each agent's
+// camera arrives as WebRTC video (H.264, peer to peer, signaling over the same broker:
+// comm/webrtc_signaling.hpp), with its glass-to-glass latency read from a stamp in the picture.
 'use strict';
 
 const kSchema = 1;
@@ -9,6 +11,16 @@ const kTrajectoryMax = 20000;  // points kept per agent
 const kPingPeriodMs = 1000;
 const kRetryMs = 1000;         // a goal is re-sent (same id) until acknowledged
 const kRetries = 10;
+const params = new URLSearchParams(location.search);
+// ?video=0 starts without video (kestrelStation.setVideo turns it on); ?overlay=1 asks agents to
+// draw boxes and features; ?ping_ms=N pings faster (latency benchmarks).
+let videoEnabled = params.get('video') !== '0';
+let videoOverlay = params.get('overlay') === '1';
+const pingPeriodMs = Math.max(20, Number(params.get('ping_ms')) || kPingPeriodMs);
+const kVideoRetryMs = 4000;   // no picture this long after a hello: start over
+const kVideoStallMs = 3000;   // no new frame this long while playing: start over
+const kVideoAliveMs = 2000;   // the agent drops viewers it has not heard from in 8 s
+const kLatencyKept = 3000;
 
 // ---- CBOR (RFC 8949), the subset nlohmann::json::to_cbor writes ------------------------------
 function decodeCbor(bytes) {
@@ -123,7 +135,7 @@ function agentState(id) {
       id, color: kColors[agents.size % kColors.length], role: '?', state: '?', online: false,
       status: null, pose: null, poses: 0, poseTimes: [], traj: [], objects: new Map(),
       path: null, grid: null, gridChain: Promise.resolve(), gridImage: null, rtt: [],
-      lastHeard: 0, missed: 0, lastSeq: null,
+      lastHeard: 0, missed: 0, lastSeq: null, offsets: [], video: null, restartVideo: false,
     };
     agents.set(id, a);
     if (selected === null) selected = id;
@@ -142,6 +154,10 @@ function log(text, cls) {
 
 function handle(topic, payload) {
   const parts = topic.split('/');
+  if (parts.length === 6 && parts[0] === 'kestrel' && parts[1] === 'v1' && parts[3] === 'webrtc') {
+    if (parts[5] === 'to_viewer') videoSignal(parts[2], parts[4], payload);
+    return;  // to_agent: ours and other stations'
+  }
   if (parts.length !== 4 || parts[0] !== 'kestrel' || parts[1] !== 'v1' || parts[2] === 'team') return;
   const [, , id, stream] = parts;
   if (stream === 'cmd' || stream === 'ping') return;  // our own traffic and the terminal station's
@@ -173,6 +189,8 @@ function handle(topic, payload) {
       break;
     }
     case 'status':
+      // An agent that went offline lost its peers: the next one it starts needs a new hello.
+      if (!m.on && a.online) a.restartVideo = true;
       a.status = m; a.role = m.role; a.state = m.st; a.online = m.on;
       break;
     case 'objects':
@@ -208,7 +226,12 @@ function handle(topic, payload) {
       const t3 = performance.now();
       const agentNs = Number(BigInt(m.t2) - BigInt(m.t1));
       a.rtt.push(Math.max(0, (t3 - p.t0ms) - agentNs * 1e-6));
-      if (a.rtt.length > 20) a.rtt.shift();
+      if (a.rtt.length > 200) a.rtt.shift();
+      // Agent clock minus ours, ((t1 - t0) + (t2 - t3)) / 2, on wall clocks (comm/SCHEMA.md).
+      const wall3 = performance.timeOrigin + t3;
+      const t1 = Number(BigInt(m.t1)) / 1e6, t2 = Number(BigInt(m.t2)) / 1e6;
+      a.offsets.push(((t1 - p.wall0) + (t2 - wall3)) / 2);
+      if (a.offsets.length > 20) a.offsets.shift();
       break;
     }
     default: break;  // detections: not drawn
@@ -290,9 +313,211 @@ function tick() {
   for (const a of agents.values()) {
     if (!a.online) continue;
     const id = nextPing++;
-    pings.set(id, { agent: a.id, t0ms: performance.now() });
-    // t0 is echoed back unchanged; the page's own clock suffices (RTT only).
-    client.publish(`kestrel/v1/${a.id}/ping`, JSON.stringify({ v: kSchema, k: 'ping', id, t0: Math.round(performance.now() * 1e6) }), { qos: 0 });
+    const t0ms = performance.now(), wall0 = performance.timeOrigin + t0ms;
+    pings.set(id, { agent: a.id, t0ms, wall0 });
+    client.publish(`kestrel/v1/${a.id}/ping`, JSON.stringify({ v: kSchema, k: 'ping', id, t0: Math.round(wall0 * 1e6) }), { qos: 0 });
+  }
+}
+
+// ---- video over WebRTC ------------------------------------------------------------------------
+// The agent offers (send-only H.264); the page answers. Chromium needs no candidates of its own
+// on loopback: it sends checks to the agent's 127.0.0.1 candidate. A hello that brings no
+// picture, a picture that stops, or an agent that restarts: the page starts over by itself.
+let nextViewer = 1;
+const kStampBits = 64, kStampCols = 16, kStampCell = 8;
+
+function videoPanel(a) {
+  let fig = document.querySelector(`#videos figure[data-agent="${CSS.escape(a.id)}"]`);
+  if (fig) return fig;
+  fig = document.createElement('figure');
+  fig.className = 'video';
+  fig.dataset.agent = a.id;
+  fig.innerHTML = '<video autoplay muted playsinline></video><figcaption><span class="vid"></span> <span class="vstats">waiting…</span></figcaption>';
+  fig.querySelector('.vid').textContent = a.id;
+  document.getElementById('videos').appendChild(fig);
+  return fig;
+}
+
+function publishSignal(a, body) {
+  if (!client || !client.connected || !a.video) return;
+  client.publish(`kestrel/v1/${a.id}/webrtc/${a.video.viewer}/to_agent`,
+    JSON.stringify(Object.assign({ v: 1 }, body)), { qos: 1 });
+}
+
+function stopVideo(a, why) {
+  const v = a.video;
+  if (!v) return;
+  if (v.pc) { publishSignal(a, { k: 'bye' }); v.pc.close(); }
+  v.pc = null; v.state = 'idle'; v.why = why;
+}
+
+function startVideo(a) {
+  const fig = videoPanel(a);
+  const el = fig.querySelector('video');
+  if (!a.video) {
+    a.video = { el, state: 'idle', restarts: 0, frames: 0, stampsOk: 0, stampsBad: 0, latencies: [],
+      canvas: null, ctx: null, stats: { fps: 0, kbps: 0, w: 0, h: 0, decoded: 0 }, prevBytes: null };
+    el.requestVideoFrameCallback((now, meta) => onVideoFrame(a, now, meta));
+  } else {
+    stopVideo(a, 'restart');
+    ++a.video.restarts;
+  }
+  const v = a.video;
+  v.viewer = `${sessionTag}v${nextViewer++}`;
+  v.state = 'asked'; v.since = performance.now(); v.lastAlive = v.since; v.lastFrameAt = null; v.offer = null;
+  const pc = new RTCPeerConnection({ iceServers: [] });
+  v.pc = pc;
+  pc.ontrack = (ev) => { el.srcObject = ev.streams[0] || new MediaStream([ev.track]); };
+  pc.onicecandidate = (ev) => {
+    if (ev.candidate && ev.candidate.candidate) publishSignal(a, { k: 'candidate', m: ev.candidate.sdpMLineIndex || 0, c: ev.candidate.candidate });
+  };
+  pc.onconnectionstatechange = () => { if (pc === v.pc && pc.connectionState === 'failed') a.restartVideo = true; };
+  publishSignal(a, { k: 'hello', overlay: videoOverlay });
+}
+
+async function videoSignal(agentId, viewer, payload) {
+  const a = agents.get(agentId);
+  if (!a || !a.video || a.video.viewer !== viewer) return;  // another viewer's, or stale
+  const v = a.video, pc = v.pc;
+  let m;
+  try {
+    m = JSON.parse(new TextDecoder().decode(payload));
+    if (typeof m !== 'object' || m === null || m.v !== 1) throw new Error('not a v1 signaling map');
+  } catch (e) {
+    ++stats.rejected;
+    console.warn(`rejected video signal from ${agentId}: ${e.message}`);
+    return;
+  }
+  try {
+    if (m.k === 'offer' && pc && typeof m.sdp === 'string') {
+      v.offer = { w: m.w, h: m.h, fps: m.fps, kbps: m.kbps, overlay: m.overlay };
+      await pc.setRemoteDescription({ type: 'offer', sdp: m.sdp });
+      const answer = await pc.createAnswer();
+      await pc.setLocalDescription(answer);
+      if (pc !== v.pc) return;
+      publishSignal(a, { k: 'answer', sdp: pc.localDescription.sdp });
+      v.state = 'answered';
+    } else if (m.k === 'candidate' && pc) {
+      await pc.addIceCandidate({ candidate: m.c, sdpMLineIndex: m.m });
+    } else if (m.k === 'error') {
+      log(`${agentId} video: ${m.d}`, 'bad');
+      a.restartVideo = true;
+    }
+  } catch (e) {
+    console.warn(`video ${agentId}: ${e.message}`);
+    a.restartVideo = true;
+  }
+}
+
+// The capture stamp (comm/webrtc_stamp.hpp): 64 cells of 8x8 in the top-left corner, µs mod 2^40,
+// frame number, CRC-8.
+function crc8(bytes) {
+  let crc = 0;
+  for (const b of bytes) {
+    crc ^= b;
+    for (let i = 0; i < 8; ++i) crc = crc & 0x80 ? ((crc << 1) ^ 0x07) & 0xff : (crc << 1) & 0xff;
+  }
+  return crc;
+}
+
+function readStamp(v) {
+  if (!v.canvas) {
+    v.canvas = document.createElement('canvas');
+    v.canvas.width = kStampCols * kStampCell; v.canvas.height = (kStampBits / kStampCols) * kStampCell;
+    v.ctx = v.canvas.getContext('2d', { willReadFrequently: true });
+  }
+  const { width: W, height: H } = v.canvas;
+  v.ctx.drawImage(v.el, 0, 0, W, H, 0, 0, W, H);
+  const px = v.ctx.getImageData(0, 0, W, H).data;
+  const bytes = new Uint8Array(8);
+  for (let bit = 0; bit < kStampBits; ++bit) {
+    const cx = (bit % kStampCols) * kStampCell + 2, cy = Math.floor(bit / kStampCols) * kStampCell + 2;
+    let sum = 0;
+    for (let dy = 0; dy < 4; ++dy) for (let dx = 0; dx < 4; ++dx) sum += px[4 * ((cy + dy) * W + cx + dx) + 1];
+    if (sum / 16 > 128) bytes[bit >> 3] |= 0x80 >> (bit & 7);
+  }
+  if (crc8(bytes.subarray(0, 7)) !== bytes[7]) return null;
+  let us = 0;
+  for (let i = 0; i < 5; ++i) us = us * 256 + bytes[i];
+  return { us, frame: bytes[5] * 256 + bytes[6] };
+}
+
+function onVideoFrame(a, now, meta) {
+  const v = a.video;
+  v.el.requestVideoFrameCallback((n, m) => onVideoFrame(a, n, m));
+  ++v.frames;
+  v.lastFrameAt = performance.now();
+  if (v.state === 'answered') { v.state = 'playing'; log(`${a.id}: video playing (${v.el.videoWidth}x${v.el.videoHeight})`, 'good'); }
+  const stamp = readStamp(v);
+  if (!stamp) { ++v.stampsBad; return; }
+  ++v.stampsOk;
+  const offset = median(a.offsets);
+  if (offset === null) return;
+  // Shown at expectedDisplayTime (our clock); the agent's clock then read offset ms more. The
+  // stamp holds the agent's capture time in µs modulo 2^40: take the candidate nearest to it.
+  const shownAgentUs = (performance.timeOrigin + meta.expectedDisplayTime + offset) * 1000;
+  const wrap = 2 ** 40;
+  let back = (shownAgentUs - stamp.us) % wrap;
+  if (back < 0) back += wrap;
+  if (back > wrap / 2) back -= wrap;
+  v.latencies.push(back / 1000);
+  if (v.latencies.length > kLatencyKept) v.latencies.shift();
+}
+
+async function videoStats(a) {
+  const v = a.video;
+  if (!v || !v.pc) return;
+  const report = await v.pc.getStats();
+  const t = performance.now();
+  report.forEach((r) => {
+    if (r.type !== 'inbound-rtp' || r.kind !== 'video') return;
+    if (v.prevBytes !== null && t > v.prevAt) v.stats.kbps = ((r.bytesReceived - v.prevBytes) * 8) / (t - v.prevAt);
+    v.prevBytes = r.bytesReceived; v.prevAt = t;
+    v.stats.fps = r.framesPerSecond || 0;
+    v.stats.w = r.frameWidth || 0; v.stats.h = r.frameHeight || 0;
+    v.stats.decoded = r.framesDecoded || 0;
+    v.stats.keyframes = r.keyFramesDecoded || 0;
+    v.stats.pli = r.pliCount || 0;
+  });
+}
+
+function videoTick(a) {
+  const now = performance.now();
+  if (!videoEnabled || !a.online) {
+    if (a.video && a.video.pc) stopVideo(a, videoEnabled ? 'agent offline' : 'video off');
+    if (!a.online) a.restartVideo = false;
+    return;
+  }
+  const v = a.video;
+  if (!v || v.state === 'idle' || a.restartVideo) {
+    a.restartVideo = false;
+    startVideo(a);
+    return;
+  }
+  const stalled = v.lastFrameAt === null ? now - v.since > kVideoRetryMs : now - v.lastFrameAt > kVideoStallMs;
+  if (stalled) { startVideo(a); return; }
+  if (now - v.lastAlive > kVideoAliveMs) { v.lastAlive = now; publishSignal(a, { k: 'alive' }); }
+  videoStats(a).catch(() => {});
+}
+
+function percentile(xs, q) {
+  if (!xs.length) return null;
+  const s = [...xs].sort((p, r) => p - r);
+  return s[Math.min(s.length - 1, Math.round(q * (s.length - 1)))];
+}
+
+function renderVideos() {
+  for (const a of agents.values()) {
+    const v = a.video;
+    if (!v) continue;
+    const fig = videoPanel(a);
+    const recent = v.latencies.slice(-90);
+    const p50 = percentile(recent, 0.5), p95 = percentile(recent, 0.95);
+    const st = v.state === 'playing'
+      ? `${v.stats.w}×${v.stats.h} · ${v.stats.fps.toFixed(0)} fps · ${Math.round(v.stats.kbps)} kbit/s · latency ${p50 === null ? '–' : p50.toFixed(0)} ms (p95 ${p95 === null ? '–' : p95.toFixed(0)})`
+      : v.state === 'idle' ? (v.why || 'off') : 'connecting…';
+    const span = fig.querySelector('.vstats');
+    if (span.textContent !== st) span.textContent = st;
   }
 }
 
@@ -423,6 +648,7 @@ function frame() {
   const now = performance.now();
   renderTable(now);
   renderMap();
+  renderVideos();
   requestAnimationFrame(frame);
 }
 
@@ -453,7 +679,9 @@ async function main() {
   });
   window.addEventListener('keydown', (ev) => { if (ev.key in teleopKeys && teleop(ev.key, false)) ev.preventDefault(); });
   window.addEventListener('keyup', (ev) => { if (ev.key in teleopKeys && ev.key !== ' ') teleop(ev.key, true); });
-  setInterval(tick, kPingPeriodMs / 2);
+  setInterval(tick, pingPeriodMs / 2);
+  setInterval(() => { for (const a of agents.values()) videoTick(a); }, 500);
+  window.addEventListener('pagehide', () => { for (const a of agents.values()) stopVideo(a, 'page closed'); });
   requestAnimationFrame(frame);
 }
 
@@ -478,6 +706,38 @@ window.kestrelStation = {
   // Canvas pixel of a world point under the current view (so a test can click a known spot).
   toCanvas(x, y) { return view ? [view.W / 2 + (x - view.cx) * view.s, view.H / 2 - (y - view.cy) * view.s] : null; },
   select(id) { selected = id; },
+  video(id) {
+    const a = agents.get(id), v = a && a.video;
+    if (!v) return null;
+    const q = v.el.getVideoPlaybackQuality ? v.el.getVideoPlaybackQuality() : null;
+    return {
+      state: v.state, viewer: v.viewer, restarts: v.restarts, videoWidth: v.el.videoWidth, videoHeight: v.el.videoHeight,
+      frames: v.frames, decoded: q ? q.totalVideoFrames : 0, stampsOk: v.stampsOk, stampsBad: v.stampsBad,
+      latency: { n: v.latencies.length, p50: percentile(v.latencies, 0.5), p95: percentile(v.latencies, 0.95) },
+      offer: v.offer, stats: Object.assign({}, v.stats), offsetMs: median(a.offsets),
+    };
+  },
+  latencies(id) { const v = agents.get(id)?.video; return v ? v.latencies.slice() : []; },
+  clearLatencies(id) { const v = agents.get(id)?.video; if (v) v.latencies.length = 0; const a = agents.get(id); if (a) a.rtt.length = 0; },
+  rtts(id) { return agents.get(id)?.rtt.slice() || []; },
+  setVideo(on) { videoEnabled = !!on; },
+  // Publishes raw text as the station (tests inject malformed signaling with it).
+  publishRaw(topic, text) { client.publish(topic, text, { qos: 1 }); },
+  // Pixel statistics of the current video frame (is there a scene, or a blank?).
+  videoPixels(id) {
+    const v = agents.get(id)?.video;
+    if (!v || !v.el.videoWidth) return null;
+    const c = document.createElement('canvas');
+    c.width = v.el.videoWidth; c.height = v.el.videoHeight;
+    const ctx = c.getContext('2d');
+    ctx.drawImage(v.el, 0, 0);
+    const d = ctx.getImageData(0, 32, c.width, c.height - 32).data;
+    let sum = 0, sq = 0;
+    const n = d.length / 4;
+    for (let i = 0; i < d.length; i += 4) { const g = (d[i] + d[i + 1] + d[i + 2]) / 3; sum += g; sq += g * g; }
+    const mean = sum / n;
+    return { mean, std: Math.sqrt(Math.max(0, sq / n - mean * mean)) };
+  },
   grid(id) {
     const g = agents.get(id)?.grid;
     return g ? { w: g.w, h: g.h, r: g.r, o: g.o, cells: Array.from(g.cells) } : null;

@@ -2,7 +2,8 @@
 # Starts a local mosquitto for Kestrel: a TCP listener and a WebSocket listener (for the station
 # page) on loopback, a password per agent (mosquitto_passwd) and an ACL in which an agent
 # publishes only under kestrel/v1/<its id>/ (never commands) and only the station publishes
-# commands and pings. Integration tests (tests/comm/) start their brokers through this script.
+# commands and pings. WebRTC signaling (comm/webrtc_signaling.hpp): an agent writes only its own
+# .../webrtc/<viewer>/to_viewer and reads its own .../to_agent; the station writes the latter. Integration tests (tests/comm/) start their brokers through this script.
 #
 #   scripts/mosquitto/start_broker.sh --dir DIR [--port P] [--ws-port W] \
 #       --user station:PASSWORD --user agent1:PASSWORD ... [--foreground]
@@ -70,6 +71,8 @@ pattern write kestrel/v1/%u/ack
 pattern write kestrel/v1/%u/pong
 pattern read kestrel/v1/%u/cmd
 pattern read kestrel/v1/%u/ping
+pattern write kestrel/v1/%u/webrtc/+/to_viewer
+pattern read kestrel/v1/%u/webrtc/+/to_agent
 pattern read kestrel/v1/team/#
 ACL
 
