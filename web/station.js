@@ -135,7 +135,7 @@ function agentState(id) {
       id, color: kColors[agents.size % kColors.length], role: '?', state: '?', online: false,
       status: null, pose: null, poses: 0, poseTimes: [], traj: [], objects: new Map(),
       path: null, grid: null, gridChain: Promise.resolve(), gridImage: null, rtt: [],
-      lastHeard: 0, missed: 0, lastSeq: null, offsets: [], video: null, restartVideo: false,
+      lastHeard: 0, missed: 0, lastSeq: null, offsets: [], rttLog: [], video: null, restartVideo: false,
     };
     agents.set(id, a);
     if (selected === null) selected = id;
@@ -226,7 +226,9 @@ function handle(topic, payload) {
       const t3 = performance.now();
       const agentNs = Number(BigInt(m.t2) - BigInt(m.t1));
       a.rtt.push(Math.max(0, (t3 - p.t0ms) - agentNs * 1e-6));
-      if (a.rtt.length > 200) a.rtt.shift();
+      if (a.rtt.length > 20) a.rtt.shift();
+      a.rttLog.push(a.rtt[a.rtt.length - 1]);  // for latency benchmarks (kestrelStation.rtts)
+      if (a.rttLog.length > kLatencyKept) a.rttLog.shift();
       // Agent clock minus ours, ((t1 - t0) + (t2 - t3)) / 2, on wall clocks (comm/SCHEMA.md).
       const wall3 = performance.timeOrigin + t3;
       const t1 = Number(BigInt(m.t1)) / 1e6, t2 = Number(BigInt(m.t2)) / 1e6;
@@ -718,8 +720,8 @@ window.kestrelStation = {
     };
   },
   latencies(id) { const v = agents.get(id)?.video; return v ? v.latencies.slice() : []; },
-  clearLatencies(id) { const v = agents.get(id)?.video; if (v) v.latencies.length = 0; const a = agents.get(id); if (a) a.rtt.length = 0; },
-  rtts(id) { return agents.get(id)?.rtt.slice() || []; },
+  clearLatencies(id) { const v = agents.get(id)?.video; if (v) v.latencies.length = 0; const a = agents.get(id); if (a) a.rttLog.length = 0; },
+  rtts(id) { return agents.get(id)?.rttLog.slice() || []; },
   setVideo(on) { videoEnabled = !!on; },
   // Publishes raw text as the station (tests inject malformed signaling with it).
   publishRaw(topic, text) { client.publish(topic, text, { qos: 1 }); },

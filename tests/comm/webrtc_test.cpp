@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
+#include "comm/webrtc_bitrate.hpp"
 #include "comm/webrtc_encoder.hpp"
 #include "comm/webrtc_frame.hpp"
 #include "comm/webrtc_sender.hpp"
@@ -282,6 +283,23 @@ TEST(WebRtcSender, DropsViewersThatNeverConnect) {
   EXPECT_EQ(s.viewers_closed, 1u);
   // Its late answer is now from an unknown viewer.
   EXPECT_FALSE(sender.handle("v1", answer_json("v=0\r\n")));
+}
+
+TEST(WebRtcBitrate, BacksOffOnLossAndQueuesAndRecoversToTheTarget) {
+  BitrateController c(3000, 300);
+  EXPECT_EQ(c.update(0.0, 0.010), 3000);  // never above the target
+  const int lossy = c.update(0.30, 0.010);
+  EXPECT_LT(lossy, 3000);
+  EXPECT_GE(lossy, static_cast<int>(3000 * 0.85) - 1);
+  for (int i = 0; i < 50; ++i) c.update(0.5, 0.010);
+  EXPECT_EQ(c.kbps(), 300);  // never below the floor
+  for (int i = 0; i < 100; ++i) c.update(0.0, 0.010);
+  EXPECT_EQ(c.kbps(), 3000);
+  // Round trip far above the best seen: a queue is building; back off without loss.
+  const int queued = c.update(0.0, 0.500);
+  EXPECT_LT(queued, 3000);
+  // Moderate loss (2..10%) holds the rate.
+  EXPECT_EQ(c.update(0.05, 0.010), queued);
 }
 
 TEST(WebRtcVideo, ParsesSizes) {
