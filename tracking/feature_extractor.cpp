@@ -72,6 +72,39 @@ std::vector<int> bucket(const std::vector<cv::KeyPoint>& kps, int width, int hei
   return chosen;
 }
 
+// OpenCV's ORB reports a level-L corner at (x_L, y_L) * scale^L, but its pyramid is built
+// with cv::resize, which maps pixel centres: x_0 = (x_L + 0.5) * W / W_L - 0.5, with W_L the
+// level's rounded width. The difference is a level-dependent offset of up to 1.5 px plus a
+// scale error of up to 0.2% (measured by flipping a frame: ORB's positions are not mirror-
+// symmetric, these are). Matched across frames at different levels, that offset is pose error.
+Vec2 level0_position(const cv::KeyPoint& k, int width, int height, float scale_factor) {
+  if (k.octave <= 0) return Vec2(k.pt.x, k.pt.y);
+  const double s = std::pow(static_cast<double>(scale_factor), k.octave);
+  // The level sizes as OpenCV computes them: cvRound(size / scale^L).
+  const int wl = cvRound(width / s);
+  const int hl = cvRound(height / s);
+  const double xl = k.pt.x / s;
+  const double yl = k.pt.y / s;
+  return Vec2((xl + 0.5) * width / wl - 0.5, (yl + 0.5) * height / hl - 0.5);
+}
+
+// Corners often sit on a silhouette, where the pixel under the keypoint may belong to either
+// surface: a map point seeded there can be metres off. A corner whose 3x3 neighbourhood spans
+// a depth step (or a hole) gets no depth and is tracked as a bearing only.
+bool depth_is_smooth(const Image& depth, int u, int v, double raw, double ratio) {
+  if (ratio <= 0.0) return true;
+  const double tol = ratio * raw;
+  for (int dv = -1; dv <= 1; ++dv) {
+    const int y = std::clamp(v + dv, 0, depth.height - 1);
+    const std::uint16_t* row = depth.row<std::uint16_t>(y);
+    for (int du = -1; du <= 1; ++du) {
+      const int x = std::clamp(u + du, 0, depth.width - 1);
+      if (row[x] == 0 || std::abs(row[x] - raw) > tol) return false;
+    }
+  }
+  return true;
+}
+
 void check_same_size(const Image& a, const Image& b, const char* what) {
   if (a.width != b.width || a.height != b.height) {
     throw std::invalid_argument(std::string("FeatureExtractor: ") + what + " is " +
@@ -139,7 +172,7 @@ FrameFeatures FeatureExtractor::extract(const Image& image, const Image* ignore,
   for (std::size_t i = 0; i < n; ++i) {
     const cv::KeyPoint& k = selected[i];
     Keypoint& out = f.keypoints[i];
-    out.px = Vec2(k.pt.x, k.pt.y);
+    out.px = level0_position(k, image.width, image.height, options_.scale_factor);
     out.angle = k.angle;
     out.response = k.response;
     out.level = k.octave;
@@ -152,7 +185,8 @@ FrameFeatures FeatureExtractor::extract(const Image& image, const Image* ignore,
       const int u = std::clamp(static_cast<int>(std::lround(out.px.x())), 0, depth->width - 1);
       const int v = std::clamp(static_cast<int>(std::lround(out.px.y())), 0, depth->height - 1);
       const double z = depth->row<std::uint16_t>(v)[u] / depth_scale;
-      if (z >= options_.min_depth && z <= options_.max_depth) {
+      if (z >= options_.min_depth && z <= options_.max_depth &&
+          depth_is_smooth(*depth, u, v, z * depth_scale, options_.edge_depth_ratio)) {
         f.depth[i] = z;
         f.points_c[i] = z * ray;
       }

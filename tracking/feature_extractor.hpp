@@ -20,6 +20,9 @@ struct FeatureExtractorOptions {
   int cell_px = 48;
   double min_depth = 0.1;  // metres; closer readings are sensor noise
   double max_depth = 8.0;  // metres; farther readings are too noisy to seed map points
+  // A keypoint keeps its depth only when its 3x3 neighbourhood agrees within this fraction of
+  // the depth (no silhouette, no hole); 0 turns the check off.
+  double edge_depth_ratio = 0.05;
 };
 
 class FeatureExtractor {
