@@ -7,9 +7,15 @@
 #include <gst/video/video.h>
 #include <gst/webrtc/webrtc.h>
 
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <atomic>
+#include <cerrno>
 #include <cstdio>
+#include <cstdlib>
 #include <deque>
 #include <map>
 #include <mutex>
@@ -52,6 +58,7 @@ struct Viewer {
   Clock::time_point next_rate = Clock::now();
 
   std::atomic<std::uint64_t> frames{0}, bytes{0}, keyframes{0}, requests{0};
+  std::atomic<int> encoder_tid{0}, encoder_nice{0};
   std::mutex timing;  // encode timing and the rate controller
   std::deque<Clock::time_point> in_flight;
   std::deque<double> encode_ms;
@@ -178,9 +185,51 @@ void on_stats(GstPromise* promise, gpointer ud) {
   if (kbps != before) g_object_set(v.enc, "bitrate", static_cast<guint>(kbps), nullptr);
 }
 
+int this_thread_id() { return static_cast<int>(syscall(SYS_gettid)); }
+
+// The nice value of the calling thread (PRIO_PROCESS with a tid addresses one thread on Linux).
+int this_thread_nice() {
+  errno = 0;
+  const int n = getpriority(PRIO_PROCESS, static_cast<id_t>(this_thread_id()));
+  return errno ? 0 : n;
+}
+
+// Bus messages of a viewer's pipeline, handled synchronously in the thread that posts them.
+// STREAM_STATUS/ENTER is posted by each streaming thread as it starts its loop: the place to
+// lower that thread's priority (VideoOptions::stream_nice). Nothing reads the bus otherwise,
+// so every message is dropped here rather than piling up for the pipeline's lifetime; errors
+// are printed (a failing peer is noticed by webrtcbin's connection state).
+GstBusSyncReply on_bus_message(GstBus*, GstMessage* msg, gpointer nice_value) {
+  const int nice_to = GPOINTER_TO_INT(nice_value);
+  if (GST_MESSAGE_TYPE(msg) == GST_MESSAGE_STREAM_STATUS && nice_to > 0) {
+    GstStreamStatusType type = GST_STREAM_STATUS_TYPE_CREATE;
+    GstElement* owner = nullptr;
+    gst_message_parse_stream_status(msg, &type, &owner);
+    if (type == GST_STREAM_STATUS_TYPE_ENTER && this_thread_nice() < nice_to) {
+      if (setpriority(PRIO_PROCESS, static_cast<id_t>(this_thread_id()), nice_to) != 0) {
+        std::perror("kestrel video: setpriority of a streaming thread");
+      }
+    }
+  } else if (GST_MESSAGE_TYPE(msg) == GST_MESSAGE_ERROR) {
+    GError* err = nullptr;
+    gchar* debug = nullptr;
+    gst_message_parse_error(msg, &err, &debug);
+    std::fprintf(stderr, "kestrel video: %s: %s\n", GST_OBJECT_NAME(GST_MESSAGE_SRC(msg)),
+                 err ? err->message : "error");
+    if (err) g_error_free(err);
+    g_free(debug);
+  }
+  return GST_BUS_DROP;
+}
+
 GstPadProbeReturn on_encoder_in(GstPad*, GstPadProbeInfo* info, gpointer ud) {
   Viewer& v = viewer_of(ud);
   if (GST_PAD_PROBE_INFO_BUFFER(info)) {
+    // The encoder runs in the thread that pushes into its sink pad: this one.
+    if (v.encoder_tid == 0) {
+      v.encoder_nice = this_thread_nice();
+      v.encoder_tid = this_thread_id();
+    }
     std::lock_guard lock(v.timing);
     v.in_flight.push_back(Clock::now());
     while (v.in_flight.size() > 64) v.in_flight.pop_front();
@@ -301,7 +350,7 @@ struct WebRtcSender::Impl {
     v->enc_settings = es;
     v->rate = BitrateController(es.kbps, opt.min_kbps);
     const std::string launch =
-        "appsrc name=src is-live=true format=time do-timestamp=true max-buffers=2 "
+        "appsrc name=src is-live=true format=time do-timestamp=true max-buffers=1 "
         "leaky-type=downstream caps=\"video/x-raw,format=I420,width=" +
         std::to_string(es.width) + ",height=" + std::to_string(es.height) +
         ",framerate=" + std::to_string(es.fps) + "/1\" ! " + h264_encoder_launch(es) +
@@ -320,6 +369,9 @@ struct WebRtcSender::Impl {
     v->src = gst_bin_get_by_name(GST_BIN(v->pipeline), "src");
     v->enc = gst_bin_get_by_name(GST_BIN(v->pipeline), "enc");
     v->webrtc = gst_bin_get_by_name(GST_BIN(v->pipeline), "webrtc");
+    GstBus* bus = gst_pipeline_get_bus(GST_PIPELINE(v->pipeline));
+    gst_bus_set_sync_handler(bus, on_bus_message, GINT_TO_POINTER(opt.stream_nice), nullptr);
+    gst_object_unref(bus);
 
     GstWebRTCRTPTransceiver* trans = nullptr;
     g_signal_emit_by_name(v->webrtc, "get-transceiver", 0, &trans);
@@ -436,6 +488,10 @@ WebRtcSender::WebRtcSender(VideoOptions options, SendFn send)
     throw Error("video: bad size or rate " + std::to_string(options_.width) + "x" +
                 std::to_string(options_.height) + "@" + std::to_string(options_.fps));
   }
+  if (const char* env = std::getenv("KESTREL_VIDEO_NICE"); env && *env) {
+    options_.stream_nice = std::atoi(env);
+  }
+  options_.stream_nice = std::clamp(options_.stream_nice, 0, 19);
   impl_->opt = options_;
   impl_->shared->send = std::move(send);
 }
@@ -572,7 +628,8 @@ void WebRtcSender::push_frame(const Image& image, std::int64_t capture_wall_ns,
     }
     std::lock_guard life(v->life);
     if (v->closed) continue;
-    // Leaky appsrc (2 frames): a stalled encoder drops old frames instead of blocking us.
+    // Leaky appsrc holding one frame: an encoder starved of CPU (it runs at stream_nice) drops
+    // the older frame, newest wins, instead of queueing latency or blocking this thread.
     gst_app_src_push_buffer(GST_APP_SRC(v->src), wrap(frame));
   }
 }
@@ -598,6 +655,8 @@ WebRtcStats WebRtcSender::stats() const {
     info.bytes = v->bytes;
     info.keyframes = v->keyframes;
     info.keyframe_requests = v->requests;
+    info.encoder_tid = v->encoder_tid;
+    info.encoder_nice = v->encoder_nice;
     std::vector<double> ms;
     {
       std::lock_guard lock(v->timing);

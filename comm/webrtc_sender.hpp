@@ -46,6 +46,15 @@ struct VideoOptions {
   std::chrono::milliseconds connect_timeout{10000};
   std::chrono::milliseconds alive_timeout{8000};
   std::chrono::milliseconds rate_period{1000};  // bitrate update from the receiver reports
+  // Telemetry wins over video: every GStreamer streaming thread of a viewer's pipeline (appsrc's,
+  // which runs x264, and webrtcbin's send queues: payloading, SRTP, UDP) lowers its own nice
+  // value to this as it starts, so under CPU shortage the kernel serves the tracking thread
+  // that publishes poses and the MQTT network thread (nice 0) first, and video frames are late
+  // instead (the leaky appsrc then drops the oldest). 0 leaves the threads at the caller's
+  // priority. The environment variable KESTREL_VIDEO_NICE overrides it (A/B benchmarks).
+  // Unprivileged processes cannot raise a thread's priority back, and GStreamer reuses its
+  // threads, so this presumes that video is the only user of GStreamer in the process.
+  int stream_nice = 10;
 };
 
 // "640x480", "1280x720" (or any even WxH up to 1920x1080); throws kestrel::Error naming `flag`.
@@ -63,6 +72,8 @@ struct ViewerInfo {
   std::uint64_t keyframe_requests = 0;  // PLI / FIR from the browser and `keyframe` messages
   double encode_ms_p50 = 0.0;           // over the last 300 frames
   double encode_ms_p95 = 0.0;
+  int encoder_tid = 0;   // the thread that ran the encoder (Linux tid), 0 before the first frame
+  int encoder_nice = 0;  // its nice value as it ran the encoder (VideoOptions::stream_nice)
 };
 
 struct WebRtcStats {

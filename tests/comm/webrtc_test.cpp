@@ -4,9 +4,14 @@
 // rejected and counted. The browser end to end is tests/web/video_e2e.mjs.
 #include <gtest/gtest.h>
 
+#include <sys/resource.h>
+
 #include <chrono>
+#include <cstdlib>
+#include <fstream>
 #include <mutex>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <thread>
 
 #include "comm/webrtc_bitrate.hpp"
@@ -283,6 +288,48 @@ TEST(WebRtcSender, DropsViewersThatNeverConnect) {
   EXPECT_EQ(s.viewers_closed, 1u);
   // Its late answer is now from an unknown viewer.
   EXPECT_FALSE(sender.handle("v1", answer_json("v=0\r\n")));
+}
+
+// Field 19 of /proc/self/task/TID/stat: the nice value the kernel schedules that thread with.
+int kernel_nice_of(int tid) {
+  std::ifstream in("/proc/self/task/" + std::to_string(tid) + "/stat");
+  std::string stat((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const auto close = stat.rfind(')');  // the thread name may hold spaces
+  if (close == std::string::npos) return -100;
+  std::istringstream fields(stat.substr(close + 2));
+  std::string f;
+  for (int i = 3; i <= 19 && fields >> f; ++i) {
+  }
+  return std::stoi(f);
+}
+
+// Telemetry wins over video: the thread that runs a viewer's encoder lowers its own priority
+// to stream_nice, and the caller's thread (in the agent: the replay loop) keeps its own.
+TEST(WebRtcSender, StreamingThreadsRunAtTheVideoNiceValue) {
+  unsetenv("KESTREL_VIDEO_NICE");
+  const int caller_nice = getpriority(PRIO_PROCESS, 0);
+  // 0 first: GStreamer reuses idle streaming threads, and one lowered stays lowered.
+  for (const int want : {0, 13}) {
+    Outbox box;
+    VideoOptions vo;
+    vo.stream_nice = want;
+    WebRtcSender sender(vo, [&](const std::string& v, const std::string& j) { box.add(v, j); });
+    ASSERT_TRUE(sender.handle("v1", hello_json(false)));
+    ViewerInfo seen;
+    for (int i = 0; i < 150 && seen.encoder_tid == 0; ++i) {
+      sender.push_frame(test_image(640, 480, i), i * 33'000'000LL);
+      std::this_thread::sleep_for(20ms);
+      const auto s = sender.stats();
+      if (!s.viewers.empty()) seen = s.viewers[0];
+    }
+    ASSERT_NE(seen.encoder_tid, 0) << "no frame reached the encoder";
+    // A thread never raises its own priority; 0 means "as the caller".
+    const int expect = want > 0 ? std::max(want, caller_nice) : caller_nice;
+    EXPECT_EQ(seen.encoder_nice, expect) << "stream_nice " << want;
+    EXPECT_EQ(kernel_nice_of(seen.encoder_tid), expect) << "stream_nice " << want;
+    EXPECT_EQ(getpriority(PRIO_PROCESS, 0), caller_nice);
+    EXPECT_EQ(sender.options().stream_nice, want);
+  }
 }
 
 TEST(WebRtcBitrate, BacksOffOnLossAndQueuesAndRecoversToTheTarget) {
