@@ -17,6 +17,9 @@ const params = new URLSearchParams(location.search);
 let videoEnabled = params.get('video') !== '0';
 let videoOverlay = params.get('overlay') === '1';
 const pingPeriodMs = Math.max(20, Number(params.get('ping_ms')) || kPingPeriodMs);
+// ?jitter_ms=N asks Chromium's video jitter buffer to hold about N ms (RTCRtpReceiver
+// jitterBufferTarget; unset: Chromium's own estimate), for glass-to-glass experiments.
+const jitterTargetMs = params.has('jitter_ms') ? Math.max(0, Number(params.get('jitter_ms')) || 0) : null;
 const kVideoRetryMs = 4000;   // no picture this long after a hello: start over
 const kVideoStallMs = 3000;   // no new frame this long while playing: start over
 const kVideoAliveMs = 2000;   // the agent drops viewers it has not heard from in 8 s
@@ -369,7 +372,10 @@ function startVideo(a) {
   v.state = 'asked'; v.since = performance.now(); v.lastAlive = v.since; v.lastFrameAt = null; v.offer = null;
   const pc = new RTCPeerConnection({ iceServers: [] });
   v.pc = pc;
-  pc.ontrack = (ev) => { el.srcObject = ev.streams[0] || new MediaStream([ev.track]); };
+  pc.ontrack = (ev) => {
+    if (jitterTargetMs !== null && 'jitterBufferTarget' in ev.receiver) ev.receiver.jitterBufferTarget = jitterTargetMs;
+    el.srcObject = ev.streams[0] || new MediaStream([ev.track]);
+  };
   pc.onicecandidate = (ev) => {
     if (ev.candidate && ev.candidate.candidate) publishSignal(a, { k: 'candidate', m: ev.candidate.sdpMLineIndex || 0, c: ev.candidate.candidate });
   };
