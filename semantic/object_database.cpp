@@ -26,6 +26,11 @@ double iou(const PixelBox& a, const PixelBox& b) {
 
 PixelBox to_box(const detect::Detection& d) { return {d.x_min, d.y_min, d.x_max, d.y_max}; }
 
+// A lattice pixel (sampled every `stride`) whose cell touches the box.
+bool inside(const PixelBox& b, const Eigen::Vector2i& p, int stride) {
+  return p.x() + stride > b.x0 && p.x() < b.x1 && p.y() + stride > b.y0 && p.y() < b.y1;
+}
+
 double footprint(const UprightBox& b) { return std::max(b.size.x(), b.size.y()); }
 
 // Centres closer than `factor` x the larger footprint (labels are compared by the caller).
@@ -59,18 +64,30 @@ bool project_box(const UprightBox& b, const SE3& T_w_c, const PinholeCamera& cam
   return out.area() > 0;
 }
 
+std::uint64_t voxel_key(const Eigen::Vector3f& p, double voxel) {
+  auto q = [&](float v) {
+    return static_cast<std::uint64_t>(static_cast<std::int64_t>(std::floor(v / voxel)) +
+                                      (1 << 20)) &
+           0x1FFFFF;
+  };
+  return q(p.x()) | (q(p.y()) << 21) | (q(p.z()) << 42);
+}
+
+// Share of the cells of `a` that `b` occupies too.
+double overlap(const std::unordered_set<std::uint64_t>& a,
+               const std::unordered_set<std::uint64_t>& b) {
+  if (a.empty()) return 0.0;
+  int shared = 0;
+  for (std::uint64_t k : a) shared += b.count(k) > 0;
+  return static_cast<double>(shared) / static_cast<double>(a.size());
+}
+
 std::vector<Eigen::Vector3f> thin(const std::vector<Eigen::Vector3f>& pts, double voxel,
                                   int max_points) {
   std::unordered_set<std::uint64_t> seen;
   std::vector<Eigen::Vector3f> out;
-  for (const auto& p : pts) {
-    auto q = [&](float v) {
-      return static_cast<std::uint64_t>(static_cast<std::int64_t>(std::floor(v / voxel)) +
-                                        (1 << 20)) &
-             0x1FFFFF;
-    };
-    if (seen.insert(q(p.x()) | (q(p.y()) << 21) | (q(p.z()) << 42)).second) out.push_back(p);
-  }
+  for (const auto& p : pts)
+    if (seen.insert(voxel_key(p, voxel)).second) out.push_back(p);
   if (static_cast<int>(out.size()) > max_points) {
     std::vector<Eigen::Vector3f> kept;
     const double step = static_cast<double>(out.size()) / max_points;
@@ -121,119 +138,193 @@ void ObjectDatabase::update_floor(const ObjectKeyframe& kf) {
   }
 }
 
-bool ObjectDatabase::measure(const ObjectKeyframe& kf, const detect::Detection& det,
-                             Measurement& out) const {
+std::vector<ObjectDatabase::Measurement> ObjectDatabase::measure_all(
+    const ObjectKeyframe& kf) const {
   const Image& d = *kf.depth;
-  const int x0 = std::clamp(static_cast<int>(std::floor(det.x_min)), 0, d.width);
-  const int x1 = std::clamp(static_cast<int>(std::ceil(det.x_max)), 0, d.width);
-  const int y0 = std::clamp(static_cast<int>(std::floor(det.y_min)), 0, d.height);
-  const int y1 = std::clamp(static_cast<int>(std::ceil(det.y_max)), 0, d.height);
-  if (static_cast<double>(x1 - x0) * (y1 - y0) < options_.min_box_pixels) return false;
-  // A box cut by the image border shows part of the object: its cluster would place a long
-  // object (a car) off centre and split it into fragments.
-  const double margin = options_.border_margin;
-  if (margin >= 0 && (det.x_min <= margin || det.y_min <= margin || det.x_max >= d.width - margin ||
-                      det.y_max >= d.height - margin))
-    return false;
   const int s = std::max(1, options_.pixel_stride);
   const Mat3 R = kf.T_w_c.rotation();
   const Vec3 t = kf.T_w_c.translation();
   const bool masked =
       kf.static_mask && kf.static_mask->size() == static_cast<std::size_t>(d.width) * d.height;
+  const int r = std::max(0, options_.smooth_radius);
+
+  // Boxes worth measuring.
+  std::vector<const detect::Detection*> boxes;
+  for (const detect::Detection& det : kf.static_boxes) {
+    const double w = std::min<double>(det.x_max, d.width) - std::max<double>(det.x_min, 0.0);
+    const double h = std::min<double>(det.y_max, d.height) - std::max<double>(det.y_min, 0.0);
+    if (w <= 0 || h <= 0 || w * h < options_.min_box_pixels) continue;
+    // A box cut by the image border shows part of the object (optional: fusion of the parts
+    // across views usually recovers the whole).
+    const double margin = options_.border_margin;
+    if (margin >= 0 && (det.x_min <= margin || det.y_min <= margin ||
+                        det.x_max >= d.width - margin || det.y_max >= d.height - margin))
+      continue;
+    boxes.push_back(&det);
+  }
+  if (boxes.empty()) return {};
+
+  // Depth points on one stride-aligned lattice over the union of the boxes, so that a pixel
+  // seen by two overlapping boxes is one point and belongs to at most one of their clusters.
+  std::vector<std::uint8_t> visited(static_cast<std::size_t>(d.width) * d.height, 0);
   std::vector<Eigen::Vector3f> pts;
   std::vector<Eigen::Vector2i> px;
-  const int r = std::max(0, options_.smooth_radius);
-  for (int v = y0; v < y1; v += s) {
-    const auto* row = d.row<std::uint16_t>(v);
-    for (int u = x0; u < x1; u += s) {
-      if (row[u] == 0) continue;
-      if (masked && (*kf.static_mask)[static_cast<std::size_t>(v) * d.width + u] == 0) continue;
-      const double z0 = row[u] / kf.depth_scale;
-      if (z0 < options_.min_depth || z0 > options_.max_depth) continue;
-      // Depth noise is per pixel: averaging the neighbours on the same surface (within a few
-      // sigma) divides it by up to 2r+1 before the geometry sees it.
-      const double tol = (2.5 * options_.depth_noise_z2 * z0 * z0 + 0.02) * kf.depth_scale;
-      double sum = 0.0;
-      int n = 0;
-      for (int yy = std::max(0, v - r); yy <= std::min(d.height - 1, v + r); ++yy) {
-        const auto* nrow = d.row<std::uint16_t>(yy);
-        for (int xx = std::max(0, u - r); xx <= std::min(d.width - 1, u + r); ++xx) {
-          if (nrow[xx] == 0 || std::abs(static_cast<double>(nrow[xx]) - row[u]) > tol) continue;
-          sum += nrow[xx];
-          ++n;
+  for (const detect::Detection* det : boxes) {
+    const int x0 = std::clamp(static_cast<int>(std::floor(det->x_min)), 0, d.width);
+    const int x1 = std::clamp(static_cast<int>(std::ceil(det->x_max)), 0, d.width);
+    const int y0 = std::clamp(static_cast<int>(std::floor(det->y_min)), 0, d.height);
+    const int y1 = std::clamp(static_cast<int>(std::ceil(det->y_max)), 0, d.height);
+    for (int v = (y0 + s - 1) / s * s; v < y1; v += s) {
+      const auto* row = d.row<std::uint16_t>(v);
+      for (int u = (x0 + s - 1) / s * s; u < x1; u += s) {
+        const std::size_t idx = static_cast<std::size_t>(v) * d.width + u;
+        if (visited[idx]) continue;
+        visited[idx] = 1;
+        if (row[u] == 0) continue;
+        if (masked && (*kf.static_mask)[idx] == 0) continue;
+        const double z0 = row[u] / kf.depth_scale;
+        if (z0 < options_.min_depth || z0 > options_.max_depth) continue;
+        // Depth noise is per pixel: averaging the neighbours on the same surface (within a few
+        // sigma) divides it by up to 2r+1 before the geometry sees it.
+        const double tol = (2.5 * options_.depth_noise_z2 * z0 * z0 + 0.02) * kf.depth_scale;
+        double sum = 0.0;
+        int n = 0;
+        for (int yy = std::max(0, v - r); yy <= std::min(d.height - 1, v + r); ++yy) {
+          const auto* nrow = d.row<std::uint16_t>(yy);
+          for (int xx = std::max(0, u - r); xx <= std::min(d.width - 1, u + r); ++xx) {
+            if (nrow[xx] == 0 || std::abs(static_cast<double>(nrow[xx]) - row[u]) > tol) continue;
+            sum += nrow[xx];
+            ++n;
+          }
         }
+        const double z = sum / n / kf.depth_scale;
+        const Vec3 pc = kf.camera.unproject(Vec2(u, v)) * z;
+        if (has_floor()) {
+          const double zw = (R * pc + t).z();
+          if (zw < floor_z_ + floor_cut(z)) continue;
+        }
+        pts.push_back(pc.cast<float>());
+        px.emplace_back(u, v);
       }
-      const double z = sum / n / kf.depth_scale;
-      const Vec3 pc = kf.camera.unproject(Vec2(u, v)) * z;
-      if (has_floor()) {
-        const double zw = (R * pc + t).z();
-        if (zw < floor_z_ + floor_cut(z)) continue;
-      }
-      pts.push_back(pc.cast<float>());
-      px.emplace_back(u, v);
     }
   }
-  if (static_cast<int>(pts.size()) < options_.min_cluster_points) return false;
-  const auto clusters =
-      euclidean_clusters(pts, options_.cluster_tolerance, options_.min_cluster_points);
-  const PixelBox det_box = to_box(det);
-  struct Candidate {
-    const std::vector<int>* members;
-    double iou, depth;
+  if (static_cast<int>(pts.size()) < options_.min_cluster_points) return {};
+  auto clusters = euclidean_clusters(pts, options_.cluster_tolerance, options_.min_cluster_points);
+
+  // Every cluster's whole image footprint (not clipped to one box): an occluder in front of a
+  // larger box spills out of that box, so it fits its own box better than the one behind it.
+  struct ClusterInfo {
+    PixelBox footprint{1e9, 1e9, -1e9, -1e9};
+    double depth = 0.0, rms = 0.0;
+    double iou = 0.0;  // with the box being matched
   };
-  std::vector<Candidate> candidates;
-  for (const auto& c : clusters) {
-    PixelBox fb{1e9, 1e9, -1e9, -1e9};
+  auto describe = [&](const std::vector<int>& members) {
+    ClusterInfo ci;
     std::vector<float> depth;
-    depth.reserve(c.size());
-    for (int i : c) {
-      fb.x0 = std::min<double>(fb.x0, px[i].x());
-      fb.y0 = std::min<double>(fb.y0, px[i].y());
-      fb.x1 = std::max<double>(fb.x1, px[i].x() + s);
-      fb.y1 = std::max<double>(fb.y1, px[i].y() + s);
+    depth.reserve(members.size());
+    for (int i : members) {
+      ci.footprint.x0 = std::min<double>(ci.footprint.x0, px[i].x());
+      ci.footprint.y0 = std::min<double>(ci.footprint.y0, px[i].y());
+      ci.footprint.x1 = std::max<double>(ci.footprint.x1, px[i].x() + s);
+      ci.footprint.y1 = std::max<double>(ci.footprint.y1, px[i].y() + s);
       depth.push_back(pts[i].z());
     }
-    const double overlap = iou(fb, det_box);
-    if (overlap < options_.min_iou) continue;
     std::nth_element(depth.begin(), depth.begin() + depth.size() / 2, depth.end());
-    const double median = depth[depth.size() / 2];
+    ci.depth = depth[depth.size() / 2];
     double sq = 0.0;
-    for (float z : depth) sq += (z - median) * (z - median);
-    if (std::sqrt(sq / depth.size()) > options_.max_depth_rms) continue;
-    candidates.push_back({&c, overlap, median});
-  }
-  // The best footprint wins; among footprints nearly as good, the nearest cluster, because the
-  // object occludes what lies behind it in its box (a wall around a chair fills the box too).
-  double best_iou = 0.0;
-  for (const Candidate& c : candidates) best_iou = std::max(best_iou, c.iou);
-  const std::vector<int>* best = nullptr;
-  double best_depth = 1e18;
-  for (const Candidate& c : candidates)
-    if (c.iou >= best_iou - options_.iou_tie && c.depth < best_depth) {
-      best_depth = c.depth;
-      best = c.members;
+    for (float z : depth) sq += (z - ci.depth) * (z - ci.depth);
+    ci.rms = std::sqrt(sq / depth.size());
+    return ci;
+  };
+  std::vector<ClusterInfo> info;
+  for (const auto& c : clusters) info.push_back(describe(c));
+
+  // One cluster per box and one box per cluster. Smaller boxes choose first: where two boxes
+  // overlap and both see the same nearest surface, it is the object of the smaller box in front
+  // of the larger one (a chair before its table), and a box's object is the nearest cluster
+  // among those whose footprint fits the box nearly as well as the best, since the object
+  // occludes what lies behind it (a wall around a chair fills the box too). The first pass
+  // compares whole footprints, so that an occluder spilling out of a box is not taken for that
+  // box's object; the second lets the remaining boxes take the part of a cluster inside them
+  // (objects that touch, a chair tucked against its table, are one cluster).
+  std::vector<std::size_t> order(boxes.size());
+  for (std::size_t b = 0; b < order.size(); ++b) order[b] = b;
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) {
+    return to_box(*boxes[x]).area() < to_box(*boxes[y]).area();
+  });
+  std::vector<bool> used(clusters.size(), false);
+  std::vector<std::vector<int>> chosen(boxes.size());
+  std::vector<ClusterInfo> chosen_info(boxes.size());
+  for (int pass = 0; pass < 2; ++pass) {
+    for (std::size_t b : order) {
+      if (!chosen[b].empty()) continue;
+      const PixelBox box = to_box(*boxes[b]);
+      std::vector<std::pair<std::size_t, ClusterInfo>> cand;
+      double top = 0.0;
+      for (std::size_t c = 0; c < clusters.size(); ++c) {
+        if (used[c]) continue;
+        ClusterInfo ci = info[c];
+        if (pass == 1) {
+          std::vector<int> in;
+          for (int i : clusters[c])
+            if (inside(box, px[i], s)) in.push_back(i);
+          if (static_cast<int>(in.size()) < options_.min_cluster_points) continue;
+          ci = describe(in);
+        }
+        if (ci.rms > options_.max_depth_rms) continue;
+        ci.iou = iou(ci.footprint, box);
+        if (ci.iou < options_.min_iou) continue;
+        top = std::max(top, ci.iou);
+        cand.emplace_back(c, ci);
+      }
+      const std::pair<std::size_t, ClusterInfo>* pick = nullptr;
+      for (const auto& c : cand)
+        if (c.second.iou >= top - options_.iou_tie &&
+            (!pick || c.second.depth < pick->second.depth))
+          pick = &c;
+      if (!pick) continue;
+      // The box keeps the part of the cluster inside it; the rest stays for the other boxes.
+      const std::size_t c = pick->first;
+      std::vector<int> rest;
+      for (int i : clusters[c]) (inside(box, px[i], s) ? chosen[b] : rest).push_back(i);
+      chosen_info[b] = describe(chosen[b]);
+      chosen_info[b].iou = pick->second.iou;
+      if (static_cast<int>(rest.size()) >= options_.min_cluster_points) {
+        info[c] = describe(rest);
+        clusters[c] = std::move(rest);
+      } else {
+        used[c] = true;
+      }
     }
-  if (!best) return false;
-  // A cluster can hold what touches the object (a table behind a tucked-in chair); an object
-  // is about as deep as it is wide, so points much farther than that from the cluster's median
-  // depth belong to something else.
-  const double width_m = (det_box.x1 - det_box.x0) * best_depth / kf.camera.fx;
-  const double keep = std::max(options_.min_depth_extent, options_.depth_extent_factor * width_m);
-  std::vector<Eigen::Vector3f> members;
-  members.reserve(best->size());
-  for (int i : *best)
-    if (std::abs(pts[i].z() - best_depth) <= keep) members.push_back(pts[i]);
-  if (static_cast<int>(members.size()) < options_.min_cluster_points) return false;
-  out.label = det.label;
-  out.score = det.score;
-  out.depth = best_depth;
-  out.points_c = thin(members, options_.point_voxel, options_.max_points_per_observation);
+  }
+
+  std::vector<Measurement> out;
   const Eigen::Matrix3f Rf = R.cast<float>();
   const Eigen::Vector3f tf = t.cast<float>();
-  out.points_w.clear();
-  for (const auto& p : out.points_c) out.points_w.push_back(Rf * p + tf);
-  out.box = fit_upright_box(out.points_w);
-  return true;
+  for (std::size_t b = 0; b < boxes.size(); ++b) {
+    if (chosen[b].empty()) continue;
+    const detect::Detection& det = *boxes[b];
+    const PixelBox box = to_box(det);
+    const ClusterInfo& ci = chosen_info[b];
+    // A cluster can hold what touches the object (a table behind a tucked-in chair); an object
+    // is about as deep as it is wide, so points much farther than that from the cluster's
+    // median depth belong to something else. The detection bounds the object in the image.
+    const double width_m = (box.x1 - box.x0) * ci.depth / kf.camera.fx;
+    const double keep = std::max(options_.min_depth_extent, options_.depth_extent_factor * width_m);
+    std::vector<Eigen::Vector3f> members;
+    for (int i : chosen[b])
+      if (std::abs(pts[i].z() - ci.depth) <= keep) members.push_back(pts[i]);
+    if (static_cast<int>(members.size()) < options_.min_cluster_points) continue;
+    Measurement m;
+    m.label = det.label;
+    m.score = det.score;
+    m.depth = ci.depth;
+    m.points_c = thin(members, options_.point_voxel, options_.max_points_per_observation);
+    for (const auto& p : m.points_c) m.points_w.push_back(Rf * p + tf);
+    m.box = fit_upright_box(m.points_w);
+    out.push_back(std::move(m));
+  }
+  return out;
 }
 
 std::vector<Eigen::Vector3f> ObjectDatabase::world_points(const Entry& e) const {
@@ -248,8 +339,16 @@ std::vector<Eigen::Vector3f> ObjectDatabase::world_points(const Entry& e) const 
   return pts;
 }
 
+std::unordered_set<std::uint64_t> ObjectDatabase::voxels_of(
+    const std::vector<Eigen::Vector3f>& pts_w) const {
+  std::unordered_set<std::uint64_t> out;
+  for (const auto& p : pts_w) out.insert(voxel_key(p, options_.overlap_voxel));
+  return out;
+}
+
 void ObjectDatabase::refit(Entry& e) const {
   const auto pts = world_points(e);
+  e.voxels = voxels_of(pts);
   if (pts.empty()) return;
   UprightBox b = fit_upright_box(pts);
   // Objects standing on the floor reach down to it: the floor band was cut from the points.
@@ -269,7 +368,11 @@ int ObjectDatabase::merge_duplicates() {
     for (auto a = entries_.begin(); a != entries_.end() && !again; ++a) {
       for (auto b = std::next(a); b != entries_.end(); ++b) {
         if (a->second.object.label != b->second.object.label) continue;
-        if (!same_object(a->second.object.box, b->second.object.box, options_.merge_factor))
+        const auto& va = a->second.voxels;
+        const auto& vb = b->second.voxels;
+        const double shared = va.size() < vb.size() ? overlap(va, vb) : overlap(vb, va);
+        if (!same_object(a->second.object.box, b->second.object.box, options_.merge_factor) &&
+            shared < options_.min_overlap)
           continue;
         Entry& keep = a->second;
         Entry& gone = b->second;
@@ -314,21 +417,28 @@ ObjectUpdateStats ObjectDatabase::update(const ObjectKeyframe& kf) {
     }
   }
 
-  for (const detect::Detection& det : kf.static_boxes) {
-    ++stats.boxes;
-    Measurement m;
-    if (!measure(kf, det, m)) continue;
+  stats.boxes = static_cast<int>(kf.static_boxes.size());
+  for (Measurement& m : measure_all(kf)) {
     ++stats.measured;
+    // The object sharing most of the measurement's cells, else the nearest one close enough.
     Entry* match = nullptr;
-    double best = 1e18;
+    Entry* nearest = nullptr;
+    double best_shared = options_.min_overlap, best_dist = 1e18;
+    const auto cells = voxels_of(m.points_w);
     for (auto& [id, e] : entries_) {
       if (e.object.label != m.label) continue;
-      const double dist = (e.object.box.center - m.box.center).head<2>().norm();
-      if (same_object(e.object.box, m.box, options_.associate_factor) && dist < best) {
-        best = dist;
+      const double shared = overlap(cells, e.voxels);
+      if (shared >= best_shared) {
+        best_shared = shared;
         match = &e;
       }
+      const double dist = (e.object.box.center - m.box.center).head<2>().norm();
+      if (same_object(e.object.box, m.box, options_.associate_factor) && dist < best_dist) {
+        best_dist = dist;
+        nearest = &e;
+      }
     }
+    if (!match) match = nearest;
     if (!match) {
       Entry e;
       e.object.id = next_id_++;

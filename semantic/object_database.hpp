@@ -9,6 +9,7 @@
 #include <map>
 #include <string>
 #include <unordered_map>
+#include <unordered_set>
 #include <vector>
 
 #include <Eigen/Core>
@@ -45,8 +46,12 @@ struct ObjectDatabaseOptions {
   double floor_noise = 0.006;      // plus this times depth^2 (depth noise grows with z^2)
   double associate_factor = 0.75;  // same label, centres closer than this x the larger size
   double merge_factor = 0.75;      // same rule between two objects
-  int min_observations = 3;        // fewer: a mislabel or a passing glimpse, not reported
-  double moving_iou = 0.3;         // a moving box this close to an object's projection removes it
+  // Same label and sharing this fraction of occupied voxels: one object seen in parts (a car
+  // cut by the image border, seen end-on then side-on), whatever its centres say.
+  double overlap_voxel = 0.15;  // metres
+  double min_overlap = 0.3;
+  int min_observations = 3;  // fewer: a mislabel or a passing glimpse, not reported
+  double moving_iou = 0.3;   // a moving box this close to an object's projection removes it
 };
 
 struct ObjectKeyframe {
@@ -108,7 +113,8 @@ class ObjectDatabase {
   struct Entry {
     SemanticObject object;
     std::vector<Observation> views;
-    double mean_depth = 0.0;  // of its measurements, for the floor cut
+    double mean_depth = 0.0;                   // of its measurements, for the floor cut
+    std::unordered_set<std::uint64_t> voxels;  // world cells (overlap_voxel) its points occupy
   };
   struct Measurement {
     std::string label;
@@ -124,10 +130,12 @@ class ObjectDatabase {
   double floor_cut(double depth) const {
     return options_.floor_margin + options_.floor_noise * depth * depth;
   }
-  bool measure(const ObjectKeyframe& kf, const detect::Detection& det, Measurement& out) const;
+  // One measurement per static box that a depth cluster explains; a cluster serves one box.
+  std::vector<Measurement> measure_all(const ObjectKeyframe& kf) const;
   void refit(Entry& e) const;
   int merge_duplicates();
   std::vector<Eigen::Vector3f> world_points(const Entry& e) const;
+  std::unordered_set<std::uint64_t> voxels_of(const std::vector<Eigen::Vector3f>& pts_w) const;
 
   ObjectDatabaseOptions options_;
   std::map<int, Entry> entries_;

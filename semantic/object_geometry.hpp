@@ -1,7 +1,7 @@
 #pragma once
-// An upright box fitted to an object's points (world frame, z up): the yaw of the smallest
-// footprint, extents from robust percentiles along those axes, so that a few noisy
-// depth readings do not inflate the box.
+// An upright box fitted to an object's points (world frame, z up): the yaw whose edges the
+// points hug (L-shape closeness), extents from robust percentiles along those axes, so that a few
+// noisy depth readings do not inflate the box.
 #include <vector>
 
 #include <Eigen/Core>

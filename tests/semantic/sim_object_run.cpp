@@ -212,11 +212,12 @@ SimObjectScores run_sim_objects(const SimObjectRunOptions& o) {
     size_err.push_back(std::abs(ew - tw) / tw);
     size_err.push_back(std::abs(ed - td) / td);
     size_err.push_back(std::abs(e.box.size.z() - w.size.z()) / w.size.z());
-    char buf[256];
+    char buf[320];
     std::snprintf(buf, sizeof(buf),
-                  "%-13s centre err %.3f m, size %.2fx%.2fx%.2f (truth %.2fx%.2fx%.2f), %d obs",
-                  w.label.c_str(), dist, ew, ed, e.box.size.z(), tw, td, w.size.z(),
-                  e.observations);
+                  "%-13s centre err %.3f m, size %.2fx%.2fx%.2f (truth %.2fx%.2fx%.2f), %d obs%s%s",
+                  w.label.c_str(), dist, ew, ed, e.box.size.z(), tw, td, w.size.z(), e.observations,
+                  w.label == e.label ? "" : ", reported as ",
+                  w.label == e.label ? "" : e.label.c_str());
     status[p.t] = buf;
   }
   for (std::size_t t = 0; t < truth.size(); ++t)
@@ -224,10 +225,11 @@ SimObjectScores run_sim_objects(const SimObjectRunOptions& o) {
   for (std::size_t r = 0; r < reported.size(); ++r)
     if (!r_used[r]) {
       char buf[160];
-      std::snprintf(buf, sizeof(buf), "extra %s at (%.2f, %.2f, %.2f), %d obs",
-                    reported[r].label.c_str(), reported[r].box.center.x(),
-                    reported[r].box.center.y(), reported[r].box.center.z(),
-                    reported[r].observations);
+      const semantic::UprightBox& b = reported[r].box;
+      std::snprintf(buf, sizeof(buf),
+                    "extra %s at (%.2f, %.2f, %.2f), size %.2fx%.2fx%.2f, yaw %.0f deg, %d obs",
+                    reported[r].label.c_str(), b.center.x(), b.center.y(), b.center.z(), b.size.x(),
+                    b.size.y(), b.size.z(), b.yaw * 180 / M_PI, reported[r].observations);
       s.lines.push_back(buf);
     }
   s.recall = s.truth > 0 ? static_cast<double>(s.matched) / s.truth : 0.0;
