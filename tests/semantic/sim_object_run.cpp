@@ -107,7 +107,9 @@ double dynamic_residue(const sim::World& world, const maps::OccupancyOctree& oct
 SimObjectScores run_sim_objects(const SimObjectRunOptions& o) {
   sim::ScenarioOverrides ov;
   ov.duration = o.duration;
-  sim::Simulator sim(sim::load_scenario(o.scenario, ov));
+  sim::Scenario scenario = sim::load_scenario(o.scenario, ov);
+  if (o.edit_scenario) o.edit_scenario(scenario);
+  sim::Simulator sim(std::move(scenario));
   const Calibration& calib = sim.calibration();
   semantic::ObjectDatabase db;
   maps::MapBuilder maps_builder;
@@ -118,11 +120,20 @@ SimObjectScores run_sim_objects(const SimObjectRunOptions& o) {
   for (int k = 0; k < sim.frame_count(); k += o.keyframe_every) {
     const sim::SimFrame f = sim.render(k);
     const SE3 T_w_c = sim.camera_pose(f.time);
+    // Mover ids whose pixels are masked: all, or only people and movers that move now.
+    std::vector<bool> masked_id(sim.world().movers().size() + 1, true);
+    masked_id[0] = false;
+    if (o.detect_still_movers)
+      for (const sim::SimBox& b : f.boxes)
+        if (b.instance < sim::kFirstObjectId && !b.moving && b.label != "person")
+          masked_id[static_cast<std::size_t>(b.instance)] = false;
     std::vector<std::uint8_t> static_mask(static_cast<std::size_t>(f.mask.width) * f.mask.height);
     for (int v = 0; v < f.mask.height; ++v)
-      for (int u = 0; u < f.mask.width; ++u)
+      for (int u = 0; u < f.mask.width; ++u) {
+        const std::uint16_t id = f.mask.row<std::uint16_t>(v)[u];
         static_mask[static_cast<std::size_t>(v) * f.mask.width + u] =
-            f.mask.row<std::uint16_t>(v)[u] == 0;
+            id >= masked_id.size() || !masked_id[id];
+      }
     semantic::ObjectKeyframe kf;
     kf.keyframe_id = k;
     kf.T_w_c = T_w_c;
@@ -149,11 +160,15 @@ SimObjectScores run_sim_objects(const SimObjectRunOptions& o) {
           ++given[b.instance];
       } else if (b.moving && b.label != "person") {
         kf.moving_boxes.push_back(d);
+      } else if (o.detect_still_movers && b.label != "person" && b.pixels >= min_pixels &&
+                 b.occluded <= 0.5) {
+        kf.static_boxes.push_back(d);
       }
     }
     auto t0 = std::chrono::steady_clock::now();
     db.update(kf);
     obj_ms.push_back(ms_since(t0));
+    if (o.on_keyframe) o.on_keyframe(sim, f.time, db);
     if (o.build_maps) {
       maps::MapKeyframe mk;
       mk.T_w_c = T_w_c;

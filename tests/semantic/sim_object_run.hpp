@@ -2,11 +2,13 @@
 // Runs the object database and the map builder over a simulated scenario with ground-truth
 // poses and ground-truth static boxes (an oracle detector), and scores the result against the
 // world's objects and its static geometry. Shared by the tests and bench/semantic_bench.
+#include <functional>
 #include <string>
 #include <vector>
 
 #include "maps/map_builder.hpp"
 #include "semantic/object_database.hpp"
+#include "sim/simulator.hpp"
 
 namespace kestrel::test {
 
@@ -17,6 +19,14 @@ struct SimObjectRunOptions {
   bool mask_movers = true;  // static pixels only (ground-truth mover masks)
   bool build_maps = true;
   std::string out_dir;  // write the outputs here when not empty
+  // A mover standing still (a chair not yet pushed) is a detection of its label like any
+  // object, and its pixels are masked only while it moves: what a detector and the dynamic
+  // filter's moving flag give. Off: movers are always masked and never detected. People are
+  // always masked.
+  bool detect_still_movers = false;
+  std::function<void(sim::Scenario&)> edit_scenario;  // applied after loading, before the run
+  // Called after each keyframe's update, with the keyframe's true time.
+  std::function<void(const sim::Simulator&, double t, const semantic::ObjectDatabase&)> on_keyframe;
 };
 
 struct SimObjectScores {
