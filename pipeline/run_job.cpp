@@ -42,16 +42,40 @@ class RunObserver : public Observer {
   void on_frame(const FrameReport& r) override {
     progress_.update(++done_, tracking::to_string(r.state));
     std::lock_guard lock(mutex_);
+    rows_.push_back({r.t, r.state, r.features, r.dynamic_features, r.inliers, r.detections,
+                     r.keyframe, r.latency_ms});
     for (KeptFrame& k : strip_) {
       if (!k.frame.color.empty() && k.frame.t == r.t) k.report = r;
     }
   }
+  // One line per frame, so a user can see where and why a track was lost (frames.csv).
+  void write_frames_csv(const std::string& path) {
+    std::lock_guard lock(mutex_);
+    std::ofstream out(path);
+    out << "#t [s],state,features,dynamic,inliers,detections,keyframe,latency [ms]\n";
+    char line[160];
+    for (const Row& r : rows_) {
+      std::snprintf(line, sizeof(line), "%.9f,%s,%d,%d,%d,%d,%d,%.2f\n", to_seconds(r.t),
+                    tracking::to_string(r.state), r.features, r.dynamic, r.inliers, r.detections,
+                    r.keyframe ? 1 : 0, r.latency_ms);
+      out << line;
+    }
+    if (!out) throw Error::at(path, 0, "", "write error");
+  }
 
  private:
+  struct Row {
+    Timestamp t;
+    tracking::TrackingState state;
+    int features, dynamic, inliers, detections;
+    bool keyframe;
+    double latency_ms;
+  };
   ProgressBar& progress_;
   std::vector<KeptFrame>& strip_;
   std::mutex mutex_;
   std::size_t done_ = 0;
+  std::vector<Row> rows_;
 };
 
 // Indices of n frames spread evenly over total, away from the very first frames.
@@ -167,6 +191,7 @@ RunSummary run_sequence(io::MeasurementSource& source, const RunOptions& options
   if (!options.out_dir.empty()) {
     std::filesystem::create_directories(options.out_dir);
     io::write_tum(options.out_dir + "/trajectory.txt", traj);
+    observer.write_frames_csv(options.out_dir + "/frames.csv");
     system.write_map_outputs(options.out_dir);
     std::ofstream(options.out_dir + "/timing.json") << summary.timing_json << "\n";
     std::ofstream(options.out_dir + "/summary.json") << summary_json(summary) << "\n";

@@ -217,7 +217,7 @@ struct System::Impl {
       in.points.reserve(features.size());
       for (const auto& kp : features.keypoints) in.points.push_back(kp.px);
       in.boxes = boxes;
-      in.depth_m = features.depth;
+      in.depth_m = features.sensor_depth;
       in.K = calib.camera.K();
       {
         std::lock_guard<std::mutex> lock(imu_mutex);

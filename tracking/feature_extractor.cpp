@@ -166,6 +166,7 @@ FrameFeatures FeatureExtractor::extract(const Image& image, const Image* ignore,
   f.keypoints.resize(n);
   f.descriptors.resize(n);
   f.depth.assign(n, 0.0);
+  f.sensor_depth.assign(n, 0.0);
   f.points_c.assign(n, Vec3::Zero());
   f.status.assign(n, FeatureStatus::kStatic);
   const bool distorted = camera_.model != DistortionModel::kNone;
@@ -185,6 +186,7 @@ FrameFeatures FeatureExtractor::extract(const Image& image, const Image* ignore,
       const int u = std::clamp(static_cast<int>(std::lround(out.px.x())), 0, depth->width - 1);
       const int v = std::clamp(static_cast<int>(std::lround(out.px.y())), 0, depth->height - 1);
       const double z = depth->row<std::uint16_t>(v)[u] / depth_scale;
+      if (z >= options_.min_depth && z <= options_.max_depth) f.sensor_depth[i] = z;
       if (z >= options_.min_depth && z <= options_.max_depth &&
           depth_is_smooth(*depth, u, v, z * depth_scale, options_.edge_depth_ratio)) {
         f.depth[i] = z;

@@ -19,7 +19,9 @@ struct FeatureExtractorOptions {
   double oversample = 3.0;
   int cell_px = 48;
   double min_depth = 0.1;  // metres; closer readings are sensor noise
-  double max_depth = 8.0;  // metres; farther readings are too noisy to seed map points
+  // metres: beyond the D455-class sensors' useful range. Far readings still seed map points (a
+  // drone at 8 m sees nothing nearer); local BA weighs them by their disparity.
+  double max_depth = 15.0;
   // A keypoint keeps its depth only when its 3x3 neighbourhood agrees within this fraction of
   // the depth (no silhouette, no hole); 0 turns the check off.
   double edge_depth_ratio = 0.05;

@@ -413,6 +413,26 @@ PoseOptimizerResult Tracker::optimize(const FrameFeatures& f, Matched& m, const 
   return r;
 }
 
+namespace {
+
+// ORB-SLAM's "close" points (within 40 virtual baselines, about 3 m) are the ones whose depth
+// seeds reliable map points. Seen from a drone at 8 m nothing is that close, and seeding only
+// the nearest hundred starves the map as it climbs; so "close" stretches to the nearer half of
+// what the frame sees, and the disparity term of local BA weighs the far points by their depth.
+double close_depth_for(const FrameFeatures& f, double configured) {
+  std::vector<double> z;
+  z.reserve(f.size());
+  for (std::size_t i = 0; i < f.size(); ++i) {
+    if (f.has_depth(i) && f.status[i] == FeatureStatus::kStatic) z.push_back(f.depth[i]);
+  }
+  if (z.empty()) return configured;
+  const auto mid = z.begin() + static_cast<std::ptrdiff_t>(z.size() / 2);
+  std::nth_element(z.begin(), mid, z.end());
+  return std::max(configured, *mid);
+}
+
+}  // namespace
+
 bool Tracker::need_keyframe(const FrameFeatures& f, const Matched& m, int inliers) const {
   if (frames_since_keyframe_ < options_.min_frames_between_keyframes) return false;
   const int n_kfs = static_cast<int>(map_.num_keyframes());
@@ -420,9 +440,9 @@ bool Tracker::need_keyframe(const FrameFeatures& f, const Matched& m, int inlier
   const int min_obs = n_kfs <= 2 ? 1 : 2;
   const int ref_matches = map_.tracked_points(reference_kf_, min_obs);
   int tracked_close = 0, untracked_close = 0;
+  const double close_depth = close_depth_for(f, options_.close_depth);
   for (std::size_t i = 0; i < f.size(); ++i) {
-    if (!f.has_depth(i) || f.depth[i] > options_.close_depth ||
-        f.status[i] != FeatureStatus::kStatic) {
+    if (!f.has_depth(i) || f.depth[i] > close_depth || f.status[i] != FeatureStatus::kStatic) {
       continue;
     }
     (m.point[i] != kNoPoint ? tracked_close : untracked_close) += 1;
@@ -437,6 +457,7 @@ bool Tracker::need_keyframe(const FrameFeatures& f, const Matched& m, int inlier
 }
 
 KeyframeId Tracker::insert_keyframe(FrameFeatures&& f, const Matched& m, const SE3& T_w_c) {
+  const double close_depth = close_depth_for(f, options_.close_depth);
   const KeyframeId kid = map_.add_keyframe(f.t, T_w_c, std::move(f));
   for (std::size_t i = 0; i < m.point.size(); ++i) {
     if (m.point[i] != kNoPoint && map_.point(m.point[i])) {
@@ -444,8 +465,7 @@ KeyframeId Tracker::insert_keyframe(FrameFeatures&& f, const Matched& m, const S
       map_.update_point(m.point[i]);
     }
   }
-  int created =
-      map_.create_points_from_depth(kid, std::numeric_limits<int>::max(), options_.close_depth);
+  int created = map_.create_points_from_depth(kid, std::numeric_limits<int>::max(), close_depth);
   if (created < options_.min_new_points) {
     created += map_.create_points_from_depth(kid, options_.min_new_points - created,
                                              options_.features.max_depth);
