@@ -28,11 +28,12 @@ void print(const std::string& name, const test::SimObjectScores& s) {
 
 }  // namespace
 
-// Regression guards at the figures measured when this landed (cafe, ground-truth poses and
-// boxes, every 10th frame): recall 0.83, precision 0.83, centre error median 0.26 m, size error
-// median 0.06, grid IoU 0.78. Issue 6 asks for recall and precision >= 0.9 and centre error
-// <= 0.10 m; the gap is the one-sided view of objects 5-8 m away (depth sigma 0.003 z^2, about
-// 15 cm at 7 m) and a chair tucked under its table that joins the table's cluster.
+// Regression guards at the figures measured (cafe, ground-truth poses and boxes, every 10th
+// frame): recall 0.83, precision 0.83, class 1.00, centre error median 0.24 m, size error
+// median 0.07, grid IoU 0.78. Issue 6 asks for recall and precision >= 0.9 and centre error
+// <= 0.10 m; the gap is the one-sided view of objects 6-7 m away (depth sigma 0.003 z^2, about
+// 12 cm at 6.5 m): the chair before the first table shows only its back, the chair behind it
+// only the top of its back, and the couch is seen cut by the image border.
 TEST(SimObjects, CafeObjectsAndGridMatchTheWorld) {
   test::SimObjectRunOptions o;
   o.scenario = "cafe";
@@ -43,11 +44,39 @@ TEST(SimObjects, CafeObjectsAndGridMatchTheWorld) {
   EXPECT_GE(s.truth, 6);
   EXPECT_GE(s.recall, 0.8);
   EXPECT_GE(s.precision, 0.8);
-  EXPECT_GE(s.class_correct, 0.8);
+  EXPECT_GE(s.class_correct, 0.9);
   EXPECT_LE(s.center_error_median, 0.30);
   EXPECT_LE(s.size_error_median, 0.20);
   EXPECT_GE(s.grid_iou, 0.7);
   EXPECT_LE(s.dynamic_residue, 0.01);
+}
+
+// market and ugv-loop, objects only (the grids are checked elsewhere). market meets issue 6's
+// recall, precision, class and size bounds; its centre error median is 0.114 m against 0.10
+// (the plants and a table are seen from two sides only). ugv-loop: the bench and one car are
+// seen end-on or cut by the border and miss the 0.5 m gate (recall and precision 0.60), the
+// matched objects are within 0.16 m.
+TEST(SimObjects, MarketAndUgvLoopObjects) {
+  for (const std::string name : {"market", "ugv-loop"}) {
+    test::SimObjectRunOptions o;
+    o.scenario = name;
+    o.build_maps = false;
+    const auto s = test::run_sim_objects(o);
+    print(name, s);
+    EXPECT_GE(s.class_correct, 0.9) << name;
+    EXPECT_LE(s.size_error_median, 0.20) << name;
+    if (name == "market") {
+      EXPECT_GE(s.truth, 7);
+      EXPECT_GE(s.recall, 0.9);
+      EXPECT_GE(s.precision, 0.9);
+      EXPECT_LE(s.center_error_median, 0.13);
+    } else {
+      EXPECT_GE(s.truth, 5);
+      EXPECT_GE(s.recall, 0.6);
+      EXPECT_GE(s.precision, 0.6);
+      EXPECT_LE(s.center_error_median, 0.20);
+    }
+  }
 }
 
 // Other scenarios on request (KESTREL_SIM_SCENARIOS="market ugv-loop"): figures for the report.
