@@ -260,7 +260,7 @@ Scenario parse_scenario_yaml(const std::string& text, const std::string& name,
   s.sky_bottom = r.color(world, "sky_bottom", s.sky_bottom, "world.");
   if (!sub(world, "ground").IsNull()) {
     const YAML::Node g = sub(world, "ground");
-    r.allow(g, "world.ground", {"center", "size", "texture"});
+    r.allow(g, "world.ground", {"center", "size", "texture", "shuffle"});
     s.has_ground = true;
     s.ground_center = r.vec3(g, "center", Vec3::Zero(), "world.ground.");
     if (!sub(g, "size").IsNull()) {
@@ -268,6 +268,7 @@ Scenario parse_scenario_yaml(const std::string& text, const std::string& name,
       s.ground_size = {v[0], v[1]};
     }
     s.ground_texture = r.texture(g, "texture", TextureSpec{}, "world.ground.", s.assets);
+    s.ground_shuffle = r.flag(g, "shuffle", false, "world.ground.");
   }
   for (const char* key : {"boxes", "rooms"}) {
     const YAML::Node list = sub(world, key);

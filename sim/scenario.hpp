@@ -92,6 +92,9 @@ struct Scenario {
   Vec3 ground_center = Vec3::Zero();
   std::array<double, 2> ground_size{40, 40};
   TextureSpec ground_texture;
+  // Turn and shade each texture repeat of the ground at random, so the ground is not periodic:
+  // a plaza of identical 3 m patches lets a tracker slip by exactly one patch.
+  bool ground_shuffle = false;
   std::vector<StaticBoxSpec> boxes;
   std::vector<ObjectSpec> objects;
   std::vector<LightZone> lights;

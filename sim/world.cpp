@@ -195,9 +195,32 @@ World::World(const Scenario& sc) : movers_(sc.movers), lights_(sc.lights) {
     const Vec3f c = f3(sc.ground_center);
     const float hx = static_cast<float>(sc.ground_size[0]) / 2,
                 hy = static_cast<float>(sc.ground_size[1]) / 2;
-    add_quad(static_mesh_, c + Vec3f(-hx, -hy, 0), c + Vec3f(hx, -hy, 0), c + Vec3f(hx, hy, 0),
-             c + Vec3f(-hx, hy, 0), Vec2f::Zero(), static_cast<float>(sc.ground_texture.scale), tex,
-             0, kTile);
+    const float scale = static_cast<float>(sc.ground_texture.scale);
+    if (!sc.ground_shuffle) {
+      add_quad(static_mesh_, c + Vec3f(-hx, -hy, 0), c + Vec3f(hx, -hy, 0), c + Vec3f(hx, hy, 0),
+               c + Vec3f(-hx, hy, 0), Vec2f::Zero(), scale, tex, 0, kTile);
+    } else {
+      // One quad per texture repeat, each turned by a multiple of 90 degrees (the corner that
+      // gets uv (0, 0) rotates) and lit a little differently, drawn from the seed: the same
+      // texture, no longer periodic. Turning keeps the winding, so every cell faces up.
+      const std::uint64_t cell_seed = seed_for(++k);
+      const int nx = std::max(1, static_cast<int>(std::ceil(2 * hx / scale)));
+      const int ny = std::max(1, static_cast<int>(std::ceil(2 * hy / scale)));
+      for (int j = 0; j < ny; ++j) {
+        for (int i = 0; i < nx; ++i) {
+          const float x0 = -hx + i * scale, x1 = std::min(hx, x0 + scale);
+          const float y0 = -hy + j * scale, y1 = std::min(hy, y0 + scale);
+          const Vec3f corner[4] = {c + Vec3f(x0, y0, 0), c + Vec3f(x1, y0, 0), c + Vec3f(x1, y1, 0),
+                                   c + Vec3f(x0, y1, 0)};
+          const std::uint64_t h = hash_combine(
+              cell_seed, static_cast<std::uint64_t>(j) * 65536u + static_cast<std::uint64_t>(i));
+          const int turn = static_cast<int>(h & 3u);
+          const float gain = 0.88f + 0.08f * static_cast<float>((h >> 2) % 4u);
+          add_quad(static_mesh_, corner[turn], corner[(turn + 1) % 4], corner[(turn + 2) % 4],
+                   corner[(turn + 3) % 4], Vec2f::Zero(), scale, tex, 0, kTile, gain);
+        }
+      }
+    }
   }
   for (const StaticBoxSpec& b : sc.boxes) {
     const int tex = add_texture(make_texture(b.texture, seed_for(++k)));

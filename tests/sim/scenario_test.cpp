@@ -64,6 +64,10 @@ TEST(Scenario, BadInputNamesFileLineAndField) {
                 .find("bad.yaml:4: field 'movers[0].type'"),
             std::string::npos);
   EXPECT_NE(error_of(base + "sensr: {}\n").find("field 'sensr': unknown key"), std::string::npos);
+  EXPECT_NE(error_of(base + "world:\n  ground: {shuffle: sometimes}\n")
+                .find("field 'world.ground.shuffle'"),
+            std::string::npos)
+      << error_of(base + "world:\n  ground: {shuffle: sometimes}\n");
   EXPECT_NE(
       error_of("trajectory:\n  waypoints: [[0, 0, 1]]\n").find("field 'trajectory.waypoints[0]'"),
       std::string::npos);
