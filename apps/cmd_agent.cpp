@@ -22,6 +22,8 @@ struct AgentFlags {
   std::string password;
   std::string source;
   double duration = 0.0;
+  double start_time = 0.0;
+  std::string detector = "none";
   bool fast = false;
   std::string video = "640x480";
   int video_kbps = 0;
@@ -43,6 +45,13 @@ void setup_agent(CLI::App& app) {
       ->required();
   cmd->add_option("--duration", flags->duration, "seconds of the source to replay (0: all)")
       ->check(CLI::Range(0.0, 36000.0));
+  cmd->add_option("--start-time", flags->start_time,
+                  "start this many seconds into the source (another start on the same path)")
+      ->check(CLI::Range(0.0, 36000.0));
+  cmd->add_option("--detector", flags->detector,
+                  "yolo | oracle (the simulator's truth boxes: sim: and kestrel: sources) | none")
+      ->check(CLI::IsMember({"yolo", "oracle", "none"}))
+      ->capture_default_str();
   cmd->add_flag("--fast", flags->fast, "replay as fast as possible instead of at sensor rate");
   cmd->add_option("--video", flags->video,
                   "WebRTC video to the station page: WIDTHxHEIGHT (640x480, 1280x720) | off")
@@ -65,6 +74,8 @@ void setup_agent(CLI::App& app) {
       if (const char* env = std::getenv("KESTREL_MQTT_PASSWORD")) opt.link.mqtt.password = env;
     }
     opt.duration_s = flags->duration;
+    opt.start_s = flags->start_time;
+    opt.detector = flags->detector;
     opt.realtime = !flags->fast;
     if (flags->video != "off") {
       kestrel::comm::VideoOptions video;
@@ -79,7 +90,7 @@ void setup_agent(CLI::App& app) {
     if (spec.rfind("sim:", 0) == 0) {
       // The simulator renders the scenario once; the agent then replays it at sensor rate.
       kestrel::sim::ScenarioOverrides over;
-      if (flags->duration > 0) over.duration = flags->duration;
+      if (flags->duration > 0) over.duration = flags->start_time + flags->duration;
       kestrel::sim::Simulator sim(kestrel::sim::load_scenario(spec.substr(4), over));
       rendered = (fs::temp_directory_path() /
                   ("kestrel-agent-" + flags->id + "-" + std::to_string(getpid())))
@@ -89,6 +100,11 @@ void setup_agent(CLI::App& app) {
       kestrel::sim::record_sequence(sim, rendered);
       spec = "kestrel:" + rendered;
     }
+    if (spec.rfind("kestrel:", 0) == 0) {
+      opt.dataset_dir = spec.substr(8);
+    } else if (fs::exists(fs::path(spec) / "boxes.csv")) {
+      opt.dataset_dir = spec;  // a bare Kestrel sequence folder
+    }
     auto source = kestrel::io::open_dataset(spec);
     std::printf("kestrel agent %s (%s) -> %s:%d: %s\n", flags->id.c_str(), flags->role.c_str(),
                 opt.link.mqtt.host.c_str(), opt.link.mqtt.port, source->describe().c_str());
@@ -97,11 +113,14 @@ void setup_agent(CLI::App& app) {
     if (!rendered.empty()) fs::remove_all(rendered);
     std::printf(
         "agent %s: %zu frames, %zu tracked, %llu poses, %llu grid messages (%llu bytes), "
-        "%llu paths, %llu commands (+%llu duplicates), %llu MQTT messages sent, %.1f s\n",
+        "%llu paths, %zu objects (%llu deltas, %llu snapshots), %llu commands (+%llu "
+        "duplicates), %llu MQTT messages sent, %.1f s\n",
         flags->id.c_str(), s.frames, s.tracked, static_cast<unsigned long long>(s.poses_published),
         static_cast<unsigned long long>(s.grid_messages),
         static_cast<unsigned long long>(s.grid_bytes),
-        static_cast<unsigned long long>(s.paths_published),
+        static_cast<unsigned long long>(s.paths_published), s.objects,
+        static_cast<unsigned long long>(s.object_messages),
+        static_cast<unsigned long long>(s.object_snapshots),
         static_cast<unsigned long long>(s.link.commands_executed),
         static_cast<unsigned long long>(s.link.commands_duplicate),
         static_cast<unsigned long long>(s.mqtt.sent), s.wall_seconds);

@@ -13,6 +13,10 @@ AgentLink::AgentLink(AgentLinkOptions options, CommandHandler handler)
     throw Error::at("command line", 0, "id",
                     "agent id '" + options_.id + "' must be 1-64 of [A-Za-z0-9_-]");
   }
+  if (options_.id == kTeamName) {
+    throw Error::at("command line", 0, "id",
+                    std::string("agent id '") + kTeamName + "' is reserved for mapd's team map");
+  }
   MqttOptions mqtt = options_.mqtt;
   mqtt.client_id = options_.id;
   if (mqtt.username.empty()) mqtt.username = options_.id;
@@ -28,7 +32,7 @@ AgentLink::AgentLink(AgentLinkOptions options, CommandHandler handler)
       [this](const std::string& topic, std::span<const std::uint8_t> p) { handle(topic, p); });
   client_->subscribe(topic_of(options_.id, "cmd"), 1);
   client_->subscribe(topic_of(options_.id, "ping"), 0);
-  client_->on_connected([this] { publish_snapshot(); });
+  client_->on_connected([this] { publish_objects_snapshot(); });
 }
 
 AgentLink::~AgentLink() {
@@ -74,7 +78,7 @@ void AgentLink::publish(const Message& m) {
   client_->publish(topic, encode(m, options_.encoding), qos, retain);
 }
 
-void AgentLink::publish_snapshot() {
+void AgentLink::publish_objects_snapshot() {
   ObjectsMsg snap;
   snap.t = wall_clock_ns();
   snap.full = true;

@@ -47,13 +47,17 @@ class AgentLink {
   // (re)connect so that a station that was away catches up.
   void publish(const Message& m);
 
+  // The object table as a retained full snapshot: sent on every (re)connect and, by the agent,
+  // now and then, so that a subscriber that joins late (mapd, a station) starts from the whole
+  // table and the deltas that follow apply to it.
+  void publish_objects_snapshot();
+
   const std::string& id() const { return options_.id; }
   AgentLinkCounts counts() const;
   MqttClient& client() { return *client_; }
 
  private:
   void handle(const std::string& topic, std::span<const std::uint8_t> payload);
-  void publish_snapshot();
 
   AgentLinkOptions options_;
   CommandHandler handler_;

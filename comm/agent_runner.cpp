@@ -9,8 +9,12 @@
 #include <thread>
 
 #include "comm/grid_delta.hpp"
+#include "comm/object_telemetry.hpp"
 #include "comm/telemetry_observer.hpp"
 #include "comm/webrtc_link.hpp"
+#include "core/error.hpp"
+#include "detect/oracle_detector.hpp"
+#include "detect/yolo_fastest.hpp"
 #include "io/trajectory_io.hpp"
 #include "maps/grid_io.hpp"
 #include "maps/map_builder.hpp"
@@ -94,13 +98,30 @@ GridState to_state(const maps::OccupancyGrid& g, std::uint32_t seq) {
   return s;
 }
 
+std::unique_ptr<detect::Detector> make_detector(const AgentRunOptions& o) {
+  if (o.detector == "yolo") {
+    return std::make_unique<detect::YoloFastest>(o.models_dir.empty() ? detect::find_models_dir()
+                                                                      : o.models_dir);
+  }
+  if (o.detector == "oracle") {
+    if (o.dataset_dir.empty()) throw Error("--detector oracle needs a sim: or kestrel: source");
+    return std::make_unique<detect::OracleDetector>(io::read_boxes(o.dataset_dir + "/boxes.csv"));
+  }
+  if (o.detector != "none") {
+    throw Error("unknown detector '" + o.detector + "' (yolo, oracle or none)");
+  }
+  return nullptr;
+}
+
 }  // namespace
 
 AgentRunSummary run_agent(io::MeasurementSource& source, const AgentRunOptions& options) {
   const Calibration calib = source.calibration();
   pipeline::SystemOptions sys_opt;
   sys_opt.sequential = !options.realtime;
-  pipeline::System system(calib, sys_opt, nullptr);
+  // The agent's world is its own (gravity-aligned at its start, DESIGN.md), never the ground
+  // truth's: a team's agents do not share a frame until mapd brings them into one.
+  pipeline::System system(calib, sys_opt, make_detector(options));
   KeyframeCollector keyframes;
   std::atomic<bool> paused{false};
   std::mutex map_mutex;  // guards grid and builder outputs used by the command handler
@@ -170,6 +191,8 @@ AgentRunSummary run_agent(io::MeasurementSource& source, const AgentRunOptions& 
   link_ptr = &link;
   TelemetryObserver telemetry(link);
   system.add_observer(&telemetry);
+  ObjectTelemetry objects(link);
+  system.add_observer(&objects);
   system.add_observer(&keyframes);
   OverlayCollector overlay;
   std::unique_ptr<WebRtcVideoLink> video;
@@ -232,14 +255,37 @@ AgentRunSummary run_agent(io::MeasurementSource& source, const AgentRunOptions& 
     grid = std::move(g);
   };
 
+  auto last_snapshot = std::chrono::steady_clock::now();
+  std::uint64_t snapshots = 0;
+  auto snapshot_objects = [&](bool force) {
+    const auto now = std::chrono::steady_clock::now();
+    if (!force && now - last_snapshot < std::chrono::duration<double>(options.objects_snapshot_s)) {
+      return;
+    }
+    last_snapshot = now;
+    if (objects.messages() == 0) return;  // nothing to say yet
+    link.publish_objects_snapshot();
+    ++snapshots;
+  };
+
   const auto wall0 = std::chrono::steady_clock::now();
-  Timestamp t0 = -1;
+  Timestamp first = -1;  // the source's first stamp
+  Timestamp t0 = -1;     // the first stamp fed
   const Timestamp limit =
       options.duration_s > 0 ? static_cast<Timestamp>(options.duration_s * 1e9) : -1;
+  const Timestamp skip = static_cast<Timestamp>(options.start_s * 1e9);
+  // IMU samples from just before a late start still go in: the world frame is gravity-aligned
+  // from the accelerometer over the 200 ms before the first frame.
+  constexpr Timestamp kImuLead = 300'000'000;
   auto next_paused_status = std::chrono::steady_clock::now();
   Timestamp paused_ns = 0;
   while (auto m = source.next()) {
     const Timestamp t = stamp_of(*m);
+    if (first < 0) first = t;
+    if (t - first < skip) {
+      if (std::holds_alternative<ImuSample>(*m) && t - first >= skip - kImuLead) system.feed(*m);
+      continue;
+    }
     if (t0 < 0) t0 = t;
     if (limit >= 0 && t - t0 > limit) break;
     while (paused) {
@@ -272,11 +318,13 @@ AgentRunSummary run_agent(io::MeasurementSource& source, const AgentRunOptions& 
     }
     system.feed(*m);
     update_map();
+    snapshot_objects(false);
   }
   system.finish();
   new_keyframes = true;
   last_grid = {};
   update_map();
+  snapshot_objects(true);
   telemetry.publish_status("finished");
   // Let the outbox drain before the link says goodbye.
   for (int i = 0; i < 100 && link.client().outbox_size() > 0; ++i) {
@@ -285,6 +333,9 @@ AgentRunSummary run_agent(io::MeasurementSource& source, const AgentRunOptions& 
   summary.tracked = system.trajectory().size();
   summary.poses_published = telemetry.poses_published();
   summary.paths_published = paths;
+  summary.object_messages = objects.messages();
+  summary.object_snapshots = snapshots;
+  summary.objects = objects.objects();
   summary.link = link.counts();
   summary.mqtt = link.client().stats();
   if (video) {

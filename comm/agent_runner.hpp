@@ -1,6 +1,7 @@
 #pragma once
 // One agent: replays a measurement source at sensor rate through pipeline::System, publishes
-// its telemetry (pose 30 Hz, status 1 Hz, occupancy-grid deltas from its own keyframes) and
+// its telemetry (pose 30 Hz, status 1 Hz, occupancy-grid deltas from its own keyframes, the
+// semantic object database as deltas on change plus a retained snapshot now and then) and
 // executes the station's commands: pause / resume, goal and return-home (A* on the agent's
 // grid -> published path), save map (trajectory + grid). Teleop is refused: a replayed
 // recording cannot be steered. With video on, each camera frame also goes to the agent's
@@ -17,12 +18,20 @@ namespace kestrel::comm {
 struct AgentRunOptions {
   AgentLinkOptions link;
   double duration_s = 0.0;       // 0: the whole source
+  double start_s = 0.0;          // skip this much of the source first (a later start on its path)
   bool realtime = true;          // sleep to the stamps' pace; false: as fast as it goes
   double grid_period_s = 2.0;    // a grid delta at most this often
   int grid_keyframe_every = 10;  // every n-th grid message is a full keyframe (late joiners)
   double robot_radius = 0.25;    // metres, for planning
   bool progress = true;
   std::optional<VideoOptions> video;  // nullopt: no video
+  // Boxes for the dynamic filter and the object database, as `kestrel run --detector`:
+  // yolo (real weights from models_dir, "" = found), oracle (the Kestrel sequence's
+  // boxes.csv in dataset_dir: the simulator's truth, which knows its furniture) or none.
+  std::string detector = "none";
+  std::string dataset_dir;
+  std::string models_dir;
+  double objects_snapshot_s = 5.0;  // retained full object snapshot at most this often
 };
 
 struct AgentRunSummary {
@@ -32,6 +41,9 @@ struct AgentRunSummary {
   std::uint64_t grid_messages = 0;
   std::uint64_t grid_bytes = 0;
   std::uint64_t paths_published = 0;
+  std::uint64_t object_messages = 0;  // deltas
+  std::uint64_t object_snapshots = 0;
+  std::size_t objects = 0;  // in the published table at the end
   AgentLinkCounts link;
   MqttStats mqtt;
   WebRtcStats video;  // empty without video
@@ -39,8 +51,8 @@ struct AgentRunSummary {
   double wall_seconds = 0.0;
 };
 
-// Throws kestrel::Error for a bad agent id or unreadable inputs. Waits up to 10 s for the
-// broker at start; runs anyway (and reconnects) if it is not there yet.
+// Throws kestrel::Error for a bad agent id, an unknown detector or unreadable inputs. Waits up to
+// 10 s for the broker at start; runs anyway (and reconnects) if it is not there yet.
 AgentRunSummary run_agent(io::MeasurementSource& source, const AgentRunOptions& options);
 
 }  // namespace kestrel::comm

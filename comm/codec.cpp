@@ -5,6 +5,8 @@
 #include <cstdio>
 #include <nlohmann/json.hpp>
 
+#include "comm/topics.hpp"
+
 namespace kestrel::comm {
 namespace {
 
@@ -190,12 +192,14 @@ json to_json(const Message& msg, Encoding e) {
           j["full"] = m.full;
           json list = json::array();
           for (const auto& o : m.objects) {
-            list.push_back({{"id", o.id},
-                            {"l", o.label},
-                            {"c", wire_array(o.center, 1e-3, e)},
-                            {"s", wire_array(o.size, 1e-3, e)},
-                            {"y", wire_real(o.yaw, 1e-3, e)},
-                            {"o", o.observations}});
+            json entry = {{"id", o.id},
+                          {"l", o.label},
+                          {"c", wire_array(o.center, 1e-3, e)},
+                          {"s", wire_array(o.size, 1e-3, e)},
+                          {"y", wire_real(o.yaw, 1e-3, e)},
+                          {"o", o.observations}};
+            if (!o.agents.empty()) entry["a"] = o.agents;
+            list.push_back(std::move(entry));
           }
           j["o"] = list;
           j["rm"] = m.removed;
@@ -325,6 +329,14 @@ Message from_json(const json& j) {
       info.size = reals<3>(o, "s");
       info.yaw = real(o, "y");
       info.observations = static_cast<std::uint32_t>(integer(o, "o", 0, kU32));
+      if (o.contains("a")) {
+        for (const json& a : array(o, "a", kMaxAgentsPerObject)) {
+          if (!a.is_string() || !valid_agent_id(a.get<std::string>())) {
+            throw Fail{DecodeError::kBadField, "field 'a' entry not an agent id"};
+          }
+          info.agents.push_back(a.get<std::string>());
+        }
+      }
       m.objects.push_back(std::move(info));
     }
     for (const json& id : array(j, "rm", 10000)) {

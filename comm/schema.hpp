@@ -16,6 +16,10 @@ namespace kestrel::comm {
 
 constexpr int kSchemaVersion = 1;
 
+// The topic name of mapd's team layer (kestrel/v1/team/...): no agent may take it.
+constexpr const char* kTeamName = "team";
+constexpr std::size_t kMaxAgentsPerObject = 64;
+
 struct PoseMsg {
   Timestamp t = 0;
   std::array<double, 3> p{};            // metres, world frame
@@ -50,10 +54,15 @@ struct ObjectInfo {
   std::array<double, 3> size{};
   double yaw = 0.0;
   std::uint32_t observations = 0;
+  // Team map only (kestrel/v1/team/objects): the agents whose objects merged into this one.
+  // Empty in an agent's own messages, and then left off the wire.
+  std::vector<std::string> agents;
 };
 
 // On change only: the objects that changed since the last message and ids that disappeared.
-// `full` marks a snapshot (a late subscriber or a merge resets its copy).
+// `full` marks a snapshot (a late subscriber or a merge resets its copy). Agents send them in
+// their own world frame; mapd publishes the merged team map, always as a full snapshot, in the
+// team frame under the reserved name kTeamName.
 struct ObjectsMsg {
   Timestamp t = 0;
   bool full = false;

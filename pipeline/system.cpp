@@ -343,7 +343,20 @@ struct System::Impl {
       ok.moving_boxes = std::move(job->moving_boxes);
       objects.update(ok);
       stats.record("mapping.objects", ms_since(t0));
+      report_objects(job->t, job->keyframe_id);
     }
+  }
+
+  // Observers (e.g. the agent's object telemetry) see the database as it changes, not only in
+  // objects.json after the run. Observers are registered before the first feed, so reading the
+  // list here needs no lock.
+  void report_objects(Timestamp t, std::int64_t keyframe_id) {
+    if (observers.empty()) return;
+    ObjectsReport r;
+    r.t = t;
+    r.keyframe_id = keyframe_id;
+    r.objects = objects.objects();
+    for (Observer* o : observers) o->on_objects(r);
   }
 
   void loop_loop() {
@@ -382,6 +395,7 @@ struct System::Impl {
       correction[keyframe_stamps[id]] = T_new * keyframe_poses[id].inverse();
       objects.reanchor(id, T_new);
     }
+    report_objects(keyframe_stamps.rbegin()->second, -1);
     std::lock_guard<std::mutex> lock(result_mutex);
     for (std::size_t i = 0; i < trajectory.size(); ++i) {
       const Timestamp t = from_seconds(trajectory.stamps[i]);

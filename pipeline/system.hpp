@@ -20,6 +20,7 @@
 #include "dynamic/dynamic_filter.hpp"
 #include "dynamic/removal_metrics.hpp"
 #include "pipeline/stage_stats.hpp"
+#include "semantic/object_database.hpp"
 #include "tracking/tracker.hpp"
 
 namespace kestrel::pipeline {
@@ -59,10 +60,22 @@ struct FrameReport {
   std::vector<dynamic::BoxRegion> boxes;      // dynamic-class detections matched to the frame
 };
 
+// The object database after a change (DESIGN.md: observers receive map updates): every object
+// it reports (ObjectDatabase::objects, world frame), after each keyframe the mapping thread
+// folded in and once more after finish() when loop closure moved keyframes.
+struct ObjectsReport {
+  Timestamp t = 0;                // stamp of the keyframe that caused the update
+  std::int64_t keyframe_id = -1;  // -1: the end-of-run loop correction
+  std::vector<semantic::SemanticObject> objects;
+};
+
 class Observer {
  public:
   virtual ~Observer() = default;
   virtual void on_frame(const FrameReport& report) = 0;
+  // Called on the mapping thread (and, for the final report, the thread calling finish()); the
+  // default ignores it so frame-only observers need not care.
+  virtual void on_objects(const ObjectsReport& /*report*/) {}
 };
 
 // Ground-truth mover mask of the frame at t (16-bit ids), or an empty Image.

@@ -2,7 +2,8 @@
 # Starts a local mosquitto for Kestrel: a TCP listener and a WebSocket listener (for the station
 # page) on loopback, a password per agent (mosquitto_passwd) and an ACL in which an agent
 # publishes only under kestrel/v1/<its id>/ (never commands) and only the station publishes
-# commands and pings. WebRTC signaling (comm/webrtc_signaling.hpp): an agent writes only its own
+# commands and pings; only the user `mapd` publishes the team map (kestrel/v1/team/#), and the
+# name `team` is no user's. WebRTC signaling (comm/webrtc_signaling.hpp): an agent writes only its own
 # .../webrtc/<viewer>/to_viewer and reads its own .../to_agent; the station writes the latter. Integration tests (tests/comm/) start their brokers through this script.
 #
 #   scripts/mosquitto/start_broker.sh --dir DIR [--port P] [--ws-port W] \
@@ -52,6 +53,11 @@ for u in "${users[@]}"; do
     echo "start_broker.sh: --user '$u': expected NAME:PASSWORD, NAME of [A-Za-z0-9_-]" >&2
     exit 2
   fi
+  if [[ "$name" == team ]]; then
+    # kestrel/v1/team/ is mapd's layer; a user named team would own it through %u.
+    echo "start_broker.sh: --user '$name': the name 'team' is reserved for mapd's team map" >&2
+    exit 2
+  fi
   mosquitto_passwd -b "$dir/passwd" "$name" "$pass"
 done
 
@@ -60,6 +66,11 @@ done
 cat > "$dir/acl" <<ACL
 user station
 topic readwrite kestrel/v1/#
+
+# mapd reads every agent's objects and alone writes the team map.
+user mapd
+topic read kestrel/v1/+/objects
+topic readwrite kestrel/v1/team/#
 
 pattern write kestrel/v1/%u/pose
 pattern write kestrel/v1/%u/status

@@ -131,17 +131,17 @@ TEST(MqttIntegration, ObjectUpdatesSurviveBrokerRestart) {
   auto st = station(broker);
   auto a = agent(broker, "a1", "pw-a1");
   ObjectsMsg first;
-  first.objects.push_back({1, "chair", {1, 2, 0}, {0.5, 0.5, 1}, 0, 3});
+  first.objects.push_back({1, "chair", {1, 2, 0}, {0.5, 0.5, 1}, 0, 3, {}});
   a->publish(first);
   ASSERT_TRUE(
       st->wait_for([](const auto& m) { return m.count("a1") && m.at("a1").objects.count(1); }, 5s));
   broker.stop(SIGKILL);
   ObjectsMsg during;  // published while the broker is down
-  during.objects.push_back({2, "potted plant", {3, 1, 0}, {0.4, 0.4, 0.8}, 0, 5});
+  during.objects.push_back({2, "potted plant", {3, 1, 0}, {0.4, 0.4, 0.8}, 0, 5, {}});
   during.removed.push_back(1);
   a->publish(during);
   ObjectsMsg again;
-  again.objects.push_back({3, "tv", {0, 4, 1}, {1, 0.1, 0.6}, 1.57, 2});
+  again.objects.push_back({3, "tv", {0, 4, 1}, {1, 0.1, 0.6}, 1.57, 2, {}});
   a->publish(again);
   broker.start();
   ASSERT_TRUE(st->wait_for(

@@ -40,7 +40,7 @@ TEST(Schema, PoseRoundTripsWithinQuantization) {
 TEST(Schema, EveryKindRoundTrips) {
   ObjectsMsg objects;
   objects.t = 5;
-  objects.objects.push_back({3, "chair", {1, 2, 0.5}, {0.5, 0.5, 1}, 0.25, 12});
+  objects.objects.push_back({3, "chair", {1, 2, 0.5}, {0.5, 0.5, 1}, 0.25, 12, {}});
   objects.removed = {9};
   GridDeltaMsg grid;
   grid.seq = 4;

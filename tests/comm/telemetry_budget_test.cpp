@@ -48,7 +48,7 @@ Budget measure(Encoding e) {
   const char* labels[] = {"chair", "dining table", "potted plant"};
   for (std::uint32_t k = 0; k < 3; ++k) {
     o.objects.push_back(
-        {100 + k, labels[k], {4.123 + k, -2.456, 0.45}, {0.52, 0.61, 0.93}, 0.785, 40 + k});
+        {100 + k, labels[k], {4.123 + k, -2.456, 0.45}, {0.52, 0.61, 0.93}, 0.785, 40 + k, {}});
   }
   b.objects += mqtt_bytes(topic_of(agent, "objects"), encode(o, e).size(), 1);
   return b;
@@ -69,7 +69,7 @@ TEST(TelemetryBudget, PerAgentBytesPerSecond) {
   ObjectsMsg snap;
   snap.full = true;
   for (std::uint32_t k = 0; k < 25; ++k) {
-    snap.objects.push_back({k, "potted plant", {1.0 * k, 2.0, 0.4}, {0.5, 0.5, 0.9}, 0.1, 9});
+    snap.objects.push_back({k, "potted plant", {1.0 * k, 2.0, 0.4}, {0.5, 0.5, 0.9}, 0.1, 9, {}});
   }
   const std::size_t snap_bytes = encode(snap).size();
   std::printf("25-object snapshot: %zu bytes CBOR, %zu bytes JSON\n", snap_bytes,
