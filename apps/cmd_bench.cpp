@@ -3,6 +3,7 @@
 // simulator into a temporary folder and run through the same pipeline::run_sequence as
 // `kestrel run`. Speed figures are medians (per-frame medians of each stage; medians over
 // scenarios); comparisons are ratios between runs of this same invocation.
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <nlohmann/json.hpp>
@@ -16,6 +17,7 @@
 #include <map>
 #include <thread>
 
+#include "apps/bench_areas.hpp"
 #include "apps/commands.hpp"
 #include "core/error.hpp"
 #include "detect/oracle_detector.hpp"
@@ -40,7 +42,12 @@ struct BenchFlags {
   std::string json_path;
   std::string work_dir;
   bool keep = false;
+  bool tiny = false;              // the smallest inputs, for the test that runs every area
+  std::vector<std::string> only;  // areas to run; empty: all
 };
+
+const std::vector<std::string> kAreas = {"accuracy",  "evaluation", "imu",   "objects",
+                                         "telemetry", "video",      "memory"};
 
 // One way of running the system (a row of the accuracy table).
 struct Mode {
@@ -154,7 +161,20 @@ std::string default_json_path(bool quick) {
 
 void run_bench(const BenchFlags& flags) {
   const auto start = std::chrono::steady_clock::now();
-  const std::vector<Scene> scenes = plan(flags.quick);
+  for (const std::string& a : flags.only) {
+    if (std::find(kAreas.begin(), kAreas.end(), a) == kAreas.end()) {
+      throw kestrel::Error("bench: unknown area '" + a +
+                           "' (--only takes a list of: accuracy, "
+                           "evaluation, imu, objects, telemetry, video, memory)");
+    }
+  }
+  const auto want = [&](const std::string& area) {
+    return flags.only.empty() ||
+           std::find(flags.only.begin(), flags.only.end(), area) != flags.only.end();
+  };
+  // --tiny keeps the accuracy area's shape with 2 s scenes and two modes.
+  std::vector<Scene> scenes = want("accuracy") ? plan(flags.quick) : std::vector<Scene>{};
+  if (flags.tiny && !scenes.empty()) scenes = {{"cafe", true, 2.0, {"hybrid+oracle", "off"}}};
   const fs::path work = flags.work_dir.empty() ? fs::temp_directory_path() /
                                                      ("kestrel-bench-" + std::to_string(getpid()))
                                                : fs::path(flags.work_dir);
@@ -207,9 +227,9 @@ void run_bench(const BenchFlags& flags) {
 
   // 3. The detectors alone, on the first scene's frames.
   std::printf("timing the detectors\n");
-  const std::size_t det_frames = flags.quick ? 40 : 150;
+  const std::size_t det_frames = flags.tiny ? 5 : flags.quick ? 40 : 150;
   std::map<std::string, std::vector<double>> detector_ms;
-  {
+  if (!rendered.empty()) {
     kestrel::detect::YoloFastest yolo(kestrel::detect::find_models_dir());
     detector_ms["yolo-fastest"] = time_detector(yolo, rendered.front().dir, det_frames);
     kestrel::detect::OracleDetector oracle(
@@ -230,89 +250,92 @@ void run_bench(const BenchFlags& flags) {
                            {"render_fps", sr.render_fps}});
   }
 
-  std::printf("\n## Accuracy (APE RMSE, SE(3)-aligned, metres)\n\n");
-  std::printf("| scene | mode | detector | APE RMSE (m) | vs off | tracked | lost |\n");
-  std::printf("|---|---|---|---|---|---|---|\n");
-  auto off_of = [&](const RunResult& r) -> const RunResult* {
-    for (const RunResult& o : runs) {
-      if (o.scenario == r.scenario && o.movers == r.movers && o.mode.name == "off") return &o;
-    }
-    return nullptr;
-  };
-  for (const RunResult& r : runs) {
-    const auto& s = r.summary;
-    const RunResult* off = off_of(r);
-    const bool ratio = off && off->summary.ape_rmse_m > 0 && s.ape_rmse_m >= 0;
-    std::printf("| %s | %s | %s | %s | %s | %zu/%zu | %zu |\n",
-                scene_name({r.scenario, r.movers, 0, {}}).c_str(), r.mode.name.c_str(),
-                r.mode.detector.c_str(), s.ape_rmse_m >= 0 ? f("%.4f", s.ape_rmse_m).c_str() : "-",
-                ratio ? f("%.2fx", s.ape_rmse_m / off->summary.ape_rmse_m).c_str() : "-", s.tracked,
-                s.frames, s.lost);
-  }
-
-  std::printf("\n## Dynamic-feature removal (against the simulator's mover masks)\n\n");
-  std::printf(
-      "| scene | mode | dynamic removed | static kept | dynamic features | static features |\n");
-  std::printf("|---|---|---|---|---|---|\n");
-  for (const RunResult& r : runs) {
-    const auto& c = r.summary.removal;
-    if (!r.movers || !r.summary.has_truth_masks) continue;
-    std::printf("| %s | %s | %.1f%% | %.1f%% | %zu | %zu |\n", r.scenario.c_str(),
-                r.mode.name.c_str(), c.removed_percent(), c.kept_percent(), c.dynamic_total,
-                c.static_total);
-  }
-
-  // Per-stage medians: the median over scenes of each run's per-frame median.
-  const std::vector<std::string> stage_names = {"features", "dynamic_filter", "tracking",
-                                                "detection", "frame_latency"};
-  std::printf("\n## Per-stage speed (ms per frame; median over scenes of per-frame medians)\n\n");
-  // frame_latency stays in the JSON only: in lock-step runs it is mostly time spent queued.
-  std::printf(
-      "| mode | features | dynamic_filter | tracking | detection | tracking FPS | speed vs off "
-      "|\n|---|---|---|---|---|---|---|\n");
-  for (const Mode& mode : all_modes()) {
-    std::map<std::string, std::vector<double>> per_stage;
-    std::vector<double> tracking_ms, ratio;
-    for (const RunResult& r : runs) {
-      if (r.mode.name != mode.name) continue;
-      for (const std::string& st : stage_names) per_stage[st].push_back(stage_p50(r.summary, st));
-      tracking_ms.push_back(r.summary.tracking_ms_median);
-      if (const RunResult* off = off_of(r); off && r.summary.tracking_ms_median > 0) {
-        ratio.push_back(off->summary.tracking_ms_median / r.summary.tracking_ms_median);
+  if (!runs.empty()) {
+    std::printf("\n## Accuracy (APE RMSE, SE(3)-aligned, metres)\n\n");
+    std::printf("| scene | mode | detector | APE RMSE (m) | vs off | tracked | lost |\n");
+    std::printf("|---|---|---|---|---|---|---|\n");
+    auto off_of = [&](const RunResult& r) -> const RunResult* {
+      for (const RunResult& o : runs) {
+        if (o.scenario == r.scenario && o.movers == r.movers && o.mode.name == "off") return &o;
       }
+      return nullptr;
+    };
+    for (const RunResult& r : runs) {
+      const auto& s = r.summary;
+      const RunResult* off = off_of(r);
+      const bool ratio = off && off->summary.ape_rmse_m > 0 && s.ape_rmse_m >= 0;
+      std::printf("| %s | %s | %s | %s | %s | %zu/%zu | %zu |\n",
+                  scene_name({r.scenario, r.movers, 0, {}}).c_str(), r.mode.name.c_str(),
+                  r.mode.detector.c_str(),
+                  s.ape_rmse_m >= 0 ? f("%.4f", s.ape_rmse_m).c_str() : "-",
+                  ratio ? f("%.2fx", s.ape_rmse_m / off->summary.ape_rmse_m).c_str() : "-",
+                  s.tracked, s.frames, s.lost);
     }
-    if (tracking_ms.empty()) continue;
-    const double tm = median(tracking_ms);
-    std::printf("| %s | %.1f | %.1f | %.1f | %s | %.1f | %.2fx |\n", mode.name.c_str(),
-                median(per_stage["features"]), median(per_stage["dynamic_filter"]),
-                median(per_stage["tracking"]),
-                mode.detector == "none" ? "-" : f("%.2f", median(per_stage["detection"])).c_str(),
-                tm > 0 ? 1000.0 / tm : 0.0, median(ratio));
-    json m;
-    for (const std::string& st : stage_names) m["stage_p50_ms"][st] = median(per_stage[st]);
-    m["tracking_ms_median"] = tm;
-    m["tracking_fps"] = tm > 0 ? 1000.0 / tm : 0.0;
-    m["speed_vs_off"] = median(ratio);
-    j["speed"][mode.name] = m;
-  }
 
-  std::printf("\n## Detector speed (alone, on %s frames)\n\n",
-              rendered.front().scene.scenario.c_str());
-  std::printf(
-      "| detector | frames | median (ms) | p90 (ms) | FPS (median) |\n|---|---|---|---|---|\n");
-  for (const auto& [name, ms] : detector_ms) {
-    const double p50 = median(ms), p90 = kestrel::pipeline::percentile(ms, 90.0);
-    std::printf("| %s | %zu | %.2f | %.2f | %.1f |\n", name.c_str(), ms.size(), p50, p90,
-                p50 > 0 ? 1000.0 / p50 : 0.0);
-    j["detectors"][name] = {{"frames", ms.size()},
-                            {"median_ms", p50},
-                            {"p90_ms", p90},
-                            {"fps", p50 > 0 ? 1000.0 / p50 : 0.0}};
-  }
+    std::printf("\n## Dynamic-feature removal (against the simulator's mover masks)\n\n");
+    std::printf(
+        "| scene | mode | dynamic removed | static kept | dynamic features | static features |\n");
+    std::printf("|---|---|---|---|---|---|\n");
+    for (const RunResult& r : runs) {
+      const auto& c = r.summary.removal;
+      if (!r.movers || !r.summary.has_truth_masks) continue;
+      std::printf("| %s | %s | %.1f%% | %.1f%% | %zu | %zu |\n", r.scenario.c_str(),
+                  r.mode.name.c_str(), c.removed_percent(), c.kept_percent(), c.dynamic_total,
+                  c.static_total);
+    }
 
-  std::printf("\n## Simulator\n\n| scene | frames | render FPS |\n|---|---|---|\n");
-  for (const SceneResult& sr : rendered) {
-    std::printf("| %s | %d | %.1f |\n", scene_name(sr.scene).c_str(), sr.frames, sr.render_fps);
+    // Per-stage medians: the median over scenes of each run's per-frame median.
+    const std::vector<std::string> stage_names = {"features", "dynamic_filter", "tracking",
+                                                  "detection", "frame_latency"};
+    std::printf("\n## Per-stage speed (ms per frame; median over scenes of per-frame medians)\n\n");
+    // frame_latency stays in the JSON only: in lock-step runs it is mostly time spent queued.
+    std::printf(
+        "| mode | features | dynamic_filter | tracking | detection | tracking FPS | speed vs off "
+        "|\n|---|---|---|---|---|---|---|\n");
+    for (const Mode& mode : all_modes()) {
+      std::map<std::string, std::vector<double>> per_stage;
+      std::vector<double> tracking_ms, ratio;
+      for (const RunResult& r : runs) {
+        if (r.mode.name != mode.name) continue;
+        for (const std::string& st : stage_names) per_stage[st].push_back(stage_p50(r.summary, st));
+        tracking_ms.push_back(r.summary.tracking_ms_median);
+        if (const RunResult* off = off_of(r); off && r.summary.tracking_ms_median > 0) {
+          ratio.push_back(off->summary.tracking_ms_median / r.summary.tracking_ms_median);
+        }
+      }
+      if (tracking_ms.empty()) continue;
+      const double tm = median(tracking_ms);
+      std::printf("| %s | %.1f | %.1f | %.1f | %s | %.1f | %.2fx |\n", mode.name.c_str(),
+                  median(per_stage["features"]), median(per_stage["dynamic_filter"]),
+                  median(per_stage["tracking"]),
+                  mode.detector == "none" ? "-" : f("%.2f", median(per_stage["detection"])).c_str(),
+                  tm > 0 ? 1000.0 / tm : 0.0, median(ratio));
+      json m;
+      for (const std::string& st : stage_names) m["stage_p50_ms"][st] = median(per_stage[st]);
+      m["tracking_ms_median"] = tm;
+      m["tracking_fps"] = tm > 0 ? 1000.0 / tm : 0.0;
+      m["speed_vs_off"] = median(ratio);
+      j["speed"][mode.name] = m;
+    }
+
+    std::printf("\n## Detector speed (alone, on %s frames)\n\n",
+                rendered.front().scene.scenario.c_str());
+    std::printf(
+        "| detector | frames | median (ms) | p90 (ms) | FPS (median) |\n|---|---|---|---|---|\n");
+    for (const auto& [name, ms] : detector_ms) {
+      const double p50 = median(ms), p90 = kestrel::pipeline::percentile(ms, 90.0);
+      std::printf("| %s | %zu | %.2f | %.2f | %.1f |\n", name.c_str(), ms.size(), p50, p90,
+                  p50 > 0 ? 1000.0 / p50 : 0.0);
+      j["detectors"][name] = {{"frames", ms.size()},
+                              {"median_ms", p50},
+                              {"p90_ms", p90},
+                              {"fps", p50 > 0 ? 1000.0 / p50 : 0.0}};
+    }
+
+    std::printf("\n## Simulator\n\n| scene | frames | render FPS |\n|---|---|---|\n");
+    for (const SceneResult& sr : rendered) {
+      std::printf("| %s | %d | %.1f |\n", scene_name(sr.scene).c_str(), sr.frames, sr.render_fps);
+    }
   }
 
   for (const RunResult& r : runs) {
@@ -329,9 +352,32 @@ void run_bench(const BenchFlags& flags) {
     run["counters"] = r.summary.counters;
     j["runs"].push_back(run);
   }
+
+  // The other areas, each through the library that owns its figures (apps/bench_*.cpp).
+  kestrel::bench::AreaOptions area;
+  area.quick = flags.quick;
+  area.tiny = flags.tiny;
+  area.shared_data = kestrel::sim::default_assets_dir();
+  if (want("evaluation")) j["evaluation"] = kestrel::bench::bench_evaluation(area);
+  if (want("imu")) j["imu"] = kestrel::bench::bench_imu(area);
+  if (want("objects")) j["objects"] = kestrel::bench::bench_objects(area);
+  if (want("telemetry")) j["telemetry"] = kestrel::bench::bench_telemetry(area);
+  if (want("video")) j["video"] = kestrel::bench::bench_video(area);
+
   const double total_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   j["wall_seconds"] = total_s;
+  if (want("memory")) {
+    // Peak resident set of this process over every area above (Linux reports KiB).
+    rusage ru{};
+    getrusage(RUSAGE_SELF, &ru);
+    const double peak_mib = static_cast<double>(ru.ru_maxrss) / 1024.0;
+    std::printf(
+        "\n## Memory\n\n| peak RSS after the bench (MiB) | wall (s) |\n|---|---|\n"
+        "| %.1f | %.0f |\n",
+        peak_mib, total_s);
+    j["memory"] = {{"peak_rss_mib", peak_mib}};
+  }
 
   const std::string out =
       flags.json_path.empty() ? default_json_path(flags.quick) : flags.json_path;
@@ -353,6 +399,10 @@ void setup_bench(CLI::App& app) {
                   "results file (default bench/results/{quick,full}-DATE.json)");
   cmd->add_option("--work", flags->work_dir, "where the rendered scenes go (kept)");
   cmd->add_flag("--keep", flags->keep, "keep the rendered scenes in the temporary folder");
+  cmd->add_flag("--tiny", flags->tiny, "the smallest inputs (seconds; for tests, not figures)");
+  cmd->add_option("--only", flags->only,
+                  "areas to run: accuracy, evaluation, imu, objects, telemetry, video, memory")
+      ->delimiter(',');
   cmd->callback([flags] { run_bench(*flags); });
 }
 
