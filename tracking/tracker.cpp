@@ -45,6 +45,8 @@ void Tracker::reset() {
   state_ = TrackingState::kInitializing;
   last_T_w_c_ = SE3();
   velocity_.reset();
+  coast_velocity_.reset();
+  lost_frames_ = 0;
   reference_kf_ = last_kf_ = -1;
   last_matches_.clear();
   frames_since_keyframe_ = 0;
@@ -102,9 +104,19 @@ TrackResult Tracker::track(FrameFeatures f, const std::optional<SE3>& predicted,
   std::vector<PointId> visible;
   double optimize_ms = 0.0;
 
-  if (!relocalizing) {
+  // Lost a moment ago: where the last motion would have taken the camera by now.
+  std::optional<SE3> coast_prior;
+  if (relocalizing && coast_velocity_ && lost_frames_ < options_.coast_frames) {
+    SE3 T = last_T_w_c_;
+    for (int i = 0; i <= lost_frames_; ++i) T = T * *coast_velocity_;
+    coast_prior = predicted ? *predicted : T;
+  }
+
+  if (!relocalizing || coast_prior) {
     const SE3 prior_w_c =
-        predicted ? *predicted : (velocity_ ? last_T_w_c_ * *velocity_ : last_T_w_c_);
+        coast_prior
+            ? *coast_prior
+            : (predicted ? *predicted : (velocity_ ? last_T_w_c_ * *velocity_ : last_T_w_c_));
     SE3 start = prior_w_c.inverse();
     pts = local_points();
     m = search_local_map(f, start, pts, options_.search_radius_px, nullptr);
@@ -132,7 +144,11 @@ TrackResult Tracker::track(FrameFeatures f, const std::optional<SE3>& predicted,
       pose = optimize(f, m, start);
       optimize_ms += ms_since(to);
     }
-  } else {
+  }
+  // A coasting guess must do as well as a relocalization would; else search the whole map.
+  if (relocalizing && !(pose.ok && pose.inliers >= options_.min_inliers_relocalize)) {
+    pose.ok = false;
+    m = Matched{};
     pts = relocalization_candidates(f);
     int pnp_inliers = 0;
     if (auto T = pnp_against(f, pts, &pnp_inliers)) {
@@ -161,6 +177,12 @@ TrackResult Tracker::track(FrameFeatures f, const std::optional<SE3>& predicted,
   res.matches = m.count;
   res.inliers = ok ? pose.inliers : 0;
   if (!ok) {
+    if (relocalizing) {
+      ++lost_frames_;
+    } else {
+      coast_velocity_ = velocity_;
+      lost_frames_ = 0;
+    }
     state_ = TrackingState::kLost;
     velocity_.reset();
     res.state = state_;
@@ -178,6 +200,8 @@ TrackResult Tracker::track(FrameFeatures f, const std::optional<SE3>& predicted,
   }
   update_reference(m);
   state_ = relocalizing ? TrackingState::kRelocalized : TrackingState::kOk;
+  coast_velocity_.reset();
+  lost_frames_ = 0;
   velocity_ =
       relocalizing ? std::optional<SE3>() : std::optional<SE3>(last_T_w_c_.inverse() * T_w_c);
   last_T_w_c_ = T_w_c;

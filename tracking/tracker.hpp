@@ -40,6 +40,10 @@ struct TrackerOptions {
   // frame's descriptors hit most, and their covisible neighbours.
   int relocalize_max_points = 6000;
   int relocalize_keyframes = 3;  // best-voted keyframes whose neighbourhoods are searched
+  // For this many frames after a loss the last motion is carried on and the frame is first
+  // tracked around that guess (a walker filling the view, a pillar passing close); only then
+  // does relocalization search the whole map. 0: relocalize at once.
+  int coast_frames = 30;
   // Keyframe decision (ORB-SLAM, RGB-D variant).
   double keyframe_ratio = 0.75;  // tracked / reference keyframe's tracked points
   int max_frames_between_keyframes = 30;
@@ -120,7 +124,9 @@ class Tracker {
   TrackingState state_ = TrackingState::kInitializing;
   SE3 initial_T_w_c_;
   SE3 last_T_w_c_;
-  std::optional<SE3> velocity_;  // T_prev_cur of the last two good frames
+  std::optional<SE3> velocity_;        // T_prev_cur of the last two good frames
+  std::optional<SE3> coast_velocity_;  // velocity_ when the track was lost
+  int lost_frames_ = 0;                // frames since the track was lost
   mapping::KeyframeId reference_kf_ = -1;
   mapping::KeyframeId last_kf_ = -1;
   std::vector<mapping::PointId> last_matches_;  // points matched in the last good frame
