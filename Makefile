@@ -2,7 +2,7 @@
 PRESET ?= release
 BUILD_DIR := build
 
-.PHONY: all setup configure build demo test clean format
+.PHONY: all setup configure build demo team-demo test clean format
 
 all: build
 
@@ -17,6 +17,11 @@ build: configure
 
 demo: build
 	@$(BUILD_DIR)/kestrel demo
+
+# Broker, two agents (uav + ugv) in market, mapd and the browser station for TEAM_SECONDS.
+TEAM_SECONDS ?= 40
+team-demo: build
+	@BUILD_DIR=$(BUILD_DIR) bash scripts/team_demo.sh $(TEAM_SECONDS)
 
 test: build
 	@ctest --preset $(PRESET)

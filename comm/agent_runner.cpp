@@ -1,6 +1,8 @@
 #include "comm/agent_runner.hpp"
 
+#include <algorithm>
 #include <atomic>
+#include <cmath>
 #include <cstdio>
 #include <deque>
 #include <filesystem>
@@ -119,8 +121,22 @@ AgentRunSummary run_agent(io::MeasurementSource& source, const AgentRunOptions& 
   const Calibration calib = source.calibration();
   pipeline::SystemOptions sys_opt;
   sys_opt.sequential = !options.realtime;
-  // The agent's world is its own (gravity-aligned at its start, DESIGN.md), never the ground
-  // truth's: a team's agents do not share a frame until mapd brings them into one.
+  // The agent's world is its own: its start position, z up, x along its start heading; never
+  // the ground truth's, since a team's agents share no frame until mapd brings them into one.
+  // With ground truth (a simulated or recorded run) its roll and pitch serve as an ideal
+  // inclinometer: the pipeline's own fallback, 200 ms of accelerometer before the first
+  // frame, has no samples at a source's very start and is tilted by motion at a later one.
+  if (auto gt = source.ground_truth(); gt && !gt->empty()) {
+    sys_opt.initial_T_w_body = [gt = std::move(*gt)](Timestamp t) -> std::optional<SE3> {
+      const double ts = to_seconds(t);
+      const auto it = std::lower_bound(gt.stamps.begin(), gt.stamps.end(), ts - 0.02);
+      if (it == gt.stamps.end() || std::fabs(*it - ts) > 0.02) return std::nullopt;
+      const Mat3 R = gt.poses[static_cast<std::size_t>(it - gt.stamps.begin())].rotation();
+      const double yaw = std::atan2(R(1, 0), R(0, 0));
+      const Mat3 level = Eigen::AngleAxisd(-yaw, Vec3::UnitZ()).toRotationMatrix() * R;
+      return SE3(Quat(level), Vec3::Zero());
+    };
+  }
   pipeline::System system(calib, sys_opt, make_detector(options));
   KeyframeCollector keyframes;
   std::atomic<bool> paused{false};
@@ -139,7 +155,18 @@ AgentRunSummary run_agent(io::MeasurementSource& source, const AgentRunOptions& 
       if (grid.empty()) return {c.id, 0, AckResult::kRejected, "no occupancy grid yet"};
       nav::PlannerOptions po;
       po.robot_radius = options.robot_radius;
-      plan = nav::plan_path(grid, start, goal, po);
+      // The camera looks ahead and never sees the floor under the robot, so the cells it stands
+      // on may still be unknown; the robot being there proves them free.
+      maps::OccupancyGrid g = grid;
+      const int r = static_cast<int>(std::ceil(options.robot_radius / g.resolution())) + 1;
+      if (const auto c = g.cell_of(start)) {
+        for (int dy = -r; dy <= r; ++dy)
+          for (int dx = -r; dx <= r; ++dx) {
+            const maps::GridCell n{c->x + dx, c->y + dy};
+            if (dx * dx + dy * dy <= r * r && g.contains(n) && g.at(n) < 0) g.set(n, 0);
+          }
+      }
+      plan = nav::plan_path(g, start, goal, po);
     }
     if (!plan.ok()) return {c.id, 0, AckResult::kRejected, plan.message};
     PathMsg path;

@@ -121,6 +121,8 @@ function applyRuns(cells, raw) {
 
 // ---- state ------------------------------------------------------------------------------------
 const agents = new Map();   // id -> agent state
+// mapd's merged map (kestrel/v1/team/objects): always a full snapshot, in the team frame.
+const team = { objects: new Map(), updates: 0 };
 const pings = new Map();    // ping id -> {agent, t0}
 const pending = new Map();  // command id -> {agent, topic, json, tries, kind}
 const stats = { messages: 0, rejected: 0, goalsSent: 0, acks: [] };
@@ -146,6 +148,27 @@ function agentState(id) {
   return a;
 }
 
+// The team layer is no agent: it has no pose, status or commands, only mapd's objects.
+function handleTeam(stream, payload) {
+  if (stream !== 'objects' || payload.length === 0) return;
+  let m;
+  try {
+    m = decodePayload(payload);
+    if (typeof m !== 'object' || m === null || m.v !== kSchema || m.k !== 'objects' || !Array.isArray(m.o)) {
+      throw new Error('not a team objects message');
+    }
+  } catch (e) {
+    ++stats.rejected;
+    console.warn(`rejected team objects: ${e.message}`);
+    return;
+  }
+  ++stats.messages;
+  if (m.full) team.objects.clear();
+  for (const o of m.o) team.objects.set(o.id, o);
+  for (const id of m.rm || []) team.objects.delete(id);
+  ++team.updates;
+}
+
 function log(text, cls) {
   const li = document.createElement('li');
   li.textContent = new Date().toISOString().slice(11, 19) + ' ' + text;
@@ -161,8 +184,9 @@ function handle(topic, payload) {
     if (parts[5] === 'to_viewer') videoSignal(parts[2], parts[4], payload);
     return;  // to_agent: ours and other stations'
   }
-  if (parts.length !== 4 || parts[0] !== 'kestrel' || parts[1] !== 'v1' || parts[2] === 'team') return;
+  if (parts.length !== 4 || parts[0] !== 'kestrel' || parts[1] !== 'v1') return;
   const [, , id, stream] = parts;
+  if (id === 'team') { handleTeam(stream, payload); return; }
   if (stream === 'cmd' || stream === 'ping') return;  // our own traffic and the terminal station's
   let m;
   try {
@@ -582,6 +606,7 @@ function worldBounds() {
     if (a.path) for (let i = 0; i < a.path.xy.length; i += 2) add(a.path.xy[i], a.path.xy[i + 1]);
     for (const o of a.objects.values()) add(o.c[0], o.c[1]);
   }
+  for (const o of team.objects.values()) add(o.c[0], o.c[1]);
   if (!isFinite(x0)) return [-5, -5, 5, 5];
   const pad = 1.0;
   return [x0 - pad, y0 - pad, x1 + pad, y1 + pad];
@@ -622,6 +647,17 @@ function renderMap() {
       ctx.fillStyle = '#eee'; ctx.font = '11px sans-serif';
       ctx.fillText(`${o.l} #${o.id}`, px(o.c[0]) + 4, py(o.c[1]) - 4);
     }
+  }
+  // Team layer: dashed gold boxes, labelled with the agents that saw each object.
+  for (const o of team.objects.values()) {
+    ctx.save();
+    ctx.translate(px(o.c[0]), py(o.c[1]));
+    ctx.rotate(-(o.y || 0));
+    ctx.setLineDash([4, 3]); ctx.strokeStyle = '#ffd54f'; ctx.lineWidth = 2;
+    ctx.strokeRect(-o.s[0] * s / 2, -o.s[1] * s / 2, o.s[0] * s, o.s[1] * s);
+    ctx.restore();
+    ctx.fillStyle = '#ffd54f'; ctx.font = '11px sans-serif';
+    ctx.fillText(`${o.l} (${(o.a || []).join(',')})`, px(o.c[0]) + 4, py(o.c[1]) + 12);
   }
   for (const a of agents.values()) {
     if (a.traj.length > 1) {
@@ -701,6 +737,7 @@ window.kestrelStation = {
       connected: !!(client && client.connected), messages: stats.messages, rejected: stats.rejected,
       goalsSent: stats.goalsSent, lastGoal: stats.lastGoal || null, acks: stats.acks.slice(),
       selected,
+      team: { updates: team.updates, objects: [...team.objects.values()].map((o) => ({ id: o.id, label: o.l, agents: o.a || [] })) },
       agents: [...agents.values()].map((a) => ({
         id: a.id, role: a.role, state: a.state, online: a.online, poses: a.poses,
         pose: a.pose && a.pose.p, trajectory: a.traj.length,
