@@ -5,18 +5,16 @@
 // station receives it on kestrel/v1/team/objects is scored against the world's objects:
 // recall and precision >= 0.9 and no world object twice.
 //
-// Disabled in CTest (tests/comm/CMakeLists.txt): it does not reach 0.9 yet, and what is short is
-// the agents' own maps, not mapd. Measured (3 x 8 s, 57.5 s wall of which 17 s rendering on the
-// loaded 2-core machine): recall 0.83 (5/6), precision 0.83 (6 reported), 0 duplicates, one
+// Disabled in CTest (tests/comm/CMakeLists.txt): precision is short of 0.9, and what is short is
+// an agent's own database, not mapd. Measured at c7df324 (market's shuffled paving, the
+// tracker's post-loss search) plus 1fcf86e, 3 x 8 s, 53.6 s wall of which 16.5 s rendering on
+// the loaded 2-core machine: recall 1.00 (6/6), precision 0.86 (7 reported), 0 duplicates, one
 // chair merged across a2 and a3.
-//  - missed: the suitcase at (6, -6). a1 tracks, but in market the tracker slips by whole
-//    floor-tile periods (2.00, 4.00, 6.00 m; the floor repeats every 2 m) from t = 3.8 s; the
-//    same slip in uav-zigzag was cured by `ground: {shuffle: true}` (eb1d739), and with it 10 s
-//    of market give APE 4 cm instead of 2.45 m (`kestrel run --detector oracle`).
-//  - extra: a "dining table" at (3.07, -2.37, 1.00) from a1, a table box measured on the stall
-//    behind it (kestrel run on market with shuffle reports the same one: semantic/).
-//  - a3 (t 16-24 s) tracks only 70 of 241 frames in the crowd.
-// Run it with `build/tests/comm/test_team` to see the current figures.
+//  - extra: a "dining table" at (3.05, -2.41, 1.05) from a1: the box of the table at
+//    (6.8, 1.5) measured on the stall at (2, -2) in front of it; `kestrel run --detector oracle`
+//    on market reports the same one (semantic/).
+//  - a3 (t 16-24 s) tracks 51 of 241 frames in the crowd; its one object (the chair) matched.
+// Enable it in CTest when it passes; run it with `build/tests/comm/test_team` meanwhile.
 #include <fcntl.h>
 #include <gtest/gtest.h>
 #include <signal.h>
