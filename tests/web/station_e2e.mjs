@@ -6,101 +6,20 @@
 //
 //   node tests/web/station_e2e.mjs BUILD_DIR [ARTIFACT_DIR]
 // Exit 0: pass, 1: fail, 77: cannot run here (no Chromium / web/node_modules) — CTest "skipped".
-import { spawn, execFileSync } from 'node:child_process';
-import { createRequire } from 'node:module';
 import fs from 'node:fs';
-import os from 'node:os';
 import path from 'node:path';
-import net from 'node:net';
-import { fileURLToPath } from 'node:url';
+import { repo, harness, freePort, sleep, waitFor } from './e2e_harness.mjs';
 
-const repo = path.resolve(path.dirname(fileURLToPath(import.meta.url)), '..', '..');
 const build = path.resolve(process.argv[2] || path.join(repo, 'build'));
 const artifacts = path.resolve(process.argv[3] || path.join(build, 'test-artifacts'));
-const chromiumPath = process.env.KESTREL_CHROMIUM || '/usr/bin/chromium';
-const kestrel = path.join(build, 'kestrel');
-
-function skip(why) { console.log(`SKIPPED: ${why}`); process.exit(77); }
-if (!fs.existsSync(chromiumPath)) skip(`no Chromium at ${chromiumPath}`);
-if (!fs.existsSync(path.join(repo, 'web/node_modules/playwright-core'))) skip('web/node_modules missing (scripts/setup)');
-if (!fs.existsSync(kestrel)) { console.error(`FAIL: ${kestrel} not built`); process.exit(1); }
-
-const { chromium } = createRequire(path.join(repo, 'web', 'package.json'))('playwright-core');
-
-const children = [];
-const tmp = fs.mkdtempSync(path.join(os.tmpdir(), 'kestrel-station-e2e-'));
-let brokerPid = null;
-
-function cleanup() {
-  for (const c of children) if (c.exitCode === null && c.signalCode === null) { try { c.kill('SIGKILL'); } catch {} }
-  if (brokerPid) { try { process.kill(brokerPid, 'SIGKILL'); } catch {} brokerPid = null; }
-  fs.rmSync(tmp, { recursive: true, force: true });
-}
-process.on('exit', cleanup);
-for (const sig of ['SIGINT', 'SIGTERM']) process.on(sig, () => { cleanup(); process.exit(1); });
-
-function start(name, args) {
-  const logFile = path.join(tmp, `${name}.log`);
-  const out = fs.openSync(logFile, 'w');
-  // Agents render their scene under $TMPDIR; a private one goes away with the test even when the
-  // agent is killed before it can remove its folder.
-  const childTmp = path.join(tmp, 'tmp');
-  fs.mkdirSync(childTmp, { recursive: true });
-  const child = spawn(kestrel, args, {
-    stdio: ['ignore', out, out], env: { ...process.env, KESTREL_MQTT_PASSWORD: '', TMPDIR: childTmp },
-  });
-  child.logFile = logFile;
-  child.name = name;
-  children.push(child);
-  return child;
-}
-
-function tail(child, n = 15) {
-  try { return fs.readFileSync(child.logFile, 'utf8').split('\n').slice(-n).join('\n'); } catch { return ''; }
-}
-
-function freePort() {
-  return new Promise((resolve, reject) => {
-    const s = net.createServer();
-    s.listen(0, '127.0.0.1', () => { const { port } = s.address(); s.close(() => resolve(port)); });
-    s.on('error', reject);
-  });
-}
-
-const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
-async function waitFor(what, fn, timeoutMs) {
-  const t0 = Date.now();
-  let last;
-  while (Date.now() - t0 < timeoutMs) {
-    last = await fn();
-    if (last) return last;
-    await sleep(200);
-  }
-  throw new Error(`timed out after ${timeoutMs} ms waiting for ${what}`);
-}
-
-let failures = 0;
-function check(ok, what) {
-  console.log(`${ok ? 'ok  ' : 'FAIL'} ${what}`);
-  if (!ok) ++failures;
-}
+const h = harness(build, 'station');
+const { chromium, chromiumPath, children, start, tail, check } = h;
+const tmp = h.tmp;
 
 let browser = null;
 try {
   const users = { station: 'st-secret', uav1: 'pw-uav', ugv1: 'pw-ugv' };
-  // The backgrounded mosquitto inherits the script's stdout: capture it in a file, not a pipe
-  // (a pipe would stay open as long as the broker runs).
-  const brokerLog = path.join(tmp, 'start_broker.out');
-  const fd = fs.openSync(brokerLog, 'w');
-  execFileSync(path.join(repo, 'scripts/mosquitto/start_broker.sh'),
-    ['--dir', path.join(tmp, 'broker'), ...Object.entries(users).flatMap(([u, p]) => ['--user', `${u}:${p}`])],
-    { stdio: ['ignore', fd, fd] });
-  fs.closeSync(fd);
-  const brokerOut = fs.readFileSync(brokerLog, 'utf8');
-  const m = /port=(\d+) ws_port=(\d+) pid=(\d+)/.exec(brokerOut);
-  if (!m) throw new Error(`start_broker.sh said: ${brokerOut}`);
-  const [port, wsPort] = [Number(m[1]), Number(m[2])];
-  brokerPid = Number(m[3]);
+  const { port, wsPort } = h.startBroker(users);
   console.log(`broker: tcp ${port}, ws ${wsPort}`);
   const broker = `mqtt://127.0.0.1:${port}`;
 
@@ -232,12 +151,10 @@ try {
   check(final.rejected === 0, `messages decoded by the page: ${final.messages}, rejected: ${final.rejected}`);
   check(consoleErrors.length === 0, `no page errors${consoleErrors.length ? ': ' + consoleErrors.join(' | ') : ''}`);
 } catch (e) {
-  console.error(`FAIL: ${e.message}`);
-  for (const c of children) console.error(`--- ${c.name} log tail ---\n${tail(c)}`);
-  ++failures;
+  h.fail(e);
 } finally {
   if (browser) await browser.close().catch(() => {});
-  cleanup();
+  h.cleanup();
 }
-console.log(failures ? `${failures} check(s) failed` : 'all checks passed');
-process.exit(failures ? 1 : 0);
+console.log(h.failures ? `${h.failures} check(s) failed` : 'all checks passed');
+process.exit(h.failures ? 1 : 0);

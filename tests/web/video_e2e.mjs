@@ -15,15 +15,10 @@
 // on/off ratio of each pair, medians over the pairs. Results to
 // bench/results/video_latency_WxH.json. --query adds page parameters (e.g. jitter_ms=0).
 // Exit 0: pass, 1: fail, 77: cannot run here (no Chromium / web/node_modules) — CTest "skipped".
-import { spawn, execFileSync } from 'node:child_process';
-import { createRequire } from 'node:module';
 import fs from 'node:fs';
-import os from 'node:os';
 import path from 'node:path';
-import net from 'node:net';
-import { fileURLToPath } from 'node:url';
+import { repo, harness, freePort, sleep, waitFor } from './e2e_harness.mjs';
 
-const repo = path.resolve(path.dirname(fileURLToPath(import.meta.url)), '..', '..');
 const args = process.argv.slice(2);
 const flag = (name, dflt) => { const i = args.indexOf(name); if (i < 0) return dflt; const v = args[i + 1]; args.splice(i, 2); return v; };
 const benchSeconds = Number(flag('--bench', 0));
@@ -33,72 +28,11 @@ const pageQuery = flag('--query', '');  // extra page parameters, e.g. jitter_ms
 const [width, height] = size.split('x').map(Number);
 const build = path.resolve(args[0] || path.join(repo, 'build'));
 const artifacts = path.resolve(args[1] || path.join(build, 'test-artifacts'));
-const chromiumPath = process.env.KESTREL_CHROMIUM || '/usr/bin/chromium';
-const kestrel = path.join(build, 'kestrel');
 const phaseMs = benchSeconds > 0 ? benchSeconds * 1000 : 5000;
 
-function skip(why) { console.log(`SKIPPED: ${why}`); process.exit(77); }
-if (!fs.existsSync(chromiumPath)) skip(`no Chromium at ${chromiumPath}`);
-if (!fs.existsSync(path.join(repo, 'web/node_modules/playwright-core'))) skip('web/node_modules missing (scripts/setup)');
-if (!fs.existsSync(kestrel)) { console.error(`FAIL: ${kestrel} not built`); process.exit(1); }
-
-const { chromium } = createRequire(path.join(repo, 'web', 'package.json'))('playwright-core');
-
-const children = [];
-const tmp = fs.mkdtempSync(path.join(os.tmpdir(), 'kestrel-video-e2e-'));
-let brokerPid = null;
-
-function cleanup() {
-  for (const c of children) if (c.exitCode === null && c.signalCode === null) { try { c.kill('SIGKILL'); } catch {} }
-  if (brokerPid) { try { process.kill(brokerPid, 'SIGKILL'); } catch {} brokerPid = null; }
-  fs.rmSync(tmp, { recursive: true, force: true });
-}
-process.on('exit', cleanup);
-for (const sig of ['SIGINT', 'SIGTERM']) process.on(sig, () => { cleanup(); process.exit(1); });
-
-function start(name, cmdArgs) {
-  const logFile = path.join(tmp, `${name}.log`);
-  const out = fs.openSync(logFile, 'w');
-  const childTmp = path.join(tmp, 'tmp');
-  fs.mkdirSync(childTmp, { recursive: true });
-  const child = spawn(kestrel, cmdArgs, {
-    stdio: ['ignore', out, out], env: { ...process.env, KESTREL_MQTT_PASSWORD: '', TMPDIR: childTmp },
-  });
-  child.logFile = logFile;
-  child.name = name;
-  children.push(child);
-  return child;
-}
-
-function tail(child, n = 15) {
-  try { return fs.readFileSync(child.logFile, 'utf8').split('\n').slice(-n).join('\n'); } catch { return ''; }
-}
-
-function freePort() {
-  return new Promise((resolve, reject) => {
-    const s = net.createServer();
-    s.listen(0, '127.0.0.1', () => { const { port } = s.address(); s.close(() => resolve(port)); });
-    s.on('error', reject);
-  });
-}
-
-const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
-async function waitFor(what, fn, timeoutMs) {
-  const t0 = Date.now();
-  let last;
-  while (Date.now() - t0 < timeoutMs) {
-    last = await fn();
-    if (last) return last;
-    await sleep(200);
-  }
-  throw new Error(`timed out after ${timeoutMs} ms waiting for ${what}`);
-}
-
-let failures = 0;
-function check(ok, what) {
-  console.log(`${ok ? 'ok  ' : 'FAIL'} ${what}`);
-  if (!ok) ++failures;
-}
+const h = harness(build, 'video');
+const { chromium, chromiumPath, children, start, tail, check } = h;
+const tmp = h.tmp;
 
 function pct(xs, q) {
   if (!xs.length) return NaN;
@@ -114,17 +48,7 @@ const agentArgs = (duration) => ['agent', '--id', 'ugv1', '--role', 'ugv', '--br
   '--source', `kestrel:${sequence}`, '--duration', String(duration), '--video', size];
 try {
   const users = { station: 'st-secret', ugv1: 'pw-ugv' };
-  const brokerLog = path.join(tmp, 'start_broker.out');
-  const fd = fs.openSync(brokerLog, 'w');
-  execFileSync(path.join(repo, 'scripts/mosquitto/start_broker.sh'),
-    ['--dir', path.join(tmp, 'broker'), ...Object.entries(users).flatMap(([u, p]) => ['--user', `${u}:${p}`])],
-    { stdio: ['ignore', fd, fd] });
-  fs.closeSync(fd);
-  const brokerOut = fs.readFileSync(brokerLog, 'utf8');
-  const m = /port=(\d+) ws_port=(\d+) pid=(\d+)/.exec(brokerOut);
-  if (!m) throw new Error(`start_broker.sh said: ${brokerOut}`);
-  const [port, wsPort] = [Number(m[1]), Number(m[2])];
-  brokerPid = Number(m[3]);
+  const { port, wsPort } = h.startBroker(users);
   const broker = `mqtt://127.0.0.1:${port}`;
   const withBroker = (a) => a.map((x) => (x === null ? broker : x));
 
@@ -345,12 +269,10 @@ try {
     }, null, 2));
   }
 } catch (e) {
-  console.error(`FAIL: ${e.message}`);
-  for (const c of children) console.error(`--- ${c.name} log tail ---\n${tail(c)}`);
-  ++failures;
+  h.fail(e);
 } finally {
   if (browser) await browser.close().catch(() => {});
-  cleanup();
+  h.cleanup();
 }
-console.log(`[${elapsed()}] ${failures ? `${failures} check(s) failed` : 'all checks passed'}`);
-process.exit(failures ? 1 : 0);
+console.log(`[${elapsed()}] ${h.failures ? `${h.failures} check(s) failed` : 'all checks passed'}`);
+process.exit(h.failures ? 1 : 0);
