@@ -13,6 +13,7 @@
 #include "apps/bench_areas.hpp"
 #include "imu/imu_initializer.hpp"
 #include "imu/preintegration.hpp"
+#include "io/dataset_lists.hpp"
 #include "io/text_lines.hpp"
 #include "sim/scenario.hpp"
 #include "sim/simulator.hpp"
@@ -79,22 +80,6 @@ json preintegration_area(const AreaOptions& o) {
           {"ms_per_window_median", median_of(ms)}};
 }
 
-std::vector<ImuSample> read_euroc_imu(const fs::path& path) {
-  const io::TextTable table = io::TextTable::read(path.string());
-  std::vector<ImuSample> out;
-  for (const io::TextRow& row : table.rows()) {
-    table.require_fields(row, 7, "timestamp, w_x, w_y, w_z, a_x, a_y, a_z");
-    ImuSample s;
-    s.t = table.nanoseconds(row, 0, "timestamp");
-    s.gyro =
-        Vec3(table.number(row, 1, "w_x"), table.number(row, 2, "w_y"), table.number(row, 3, "w_z"));
-    s.acc =
-        Vec3(table.number(row, 4, "a_x"), table.number(row, 5, "a_y"), table.number(row, 6, "a_z"));
-    out.push_back(s);
-  }
-  return out;
-}
-
 json static_init_area(const AreaOptions& o) {
   const fs::path dir = fs::path(o.shared_data) / "euroc" / "V1_01_micro";
   const fs::path imu_csv = dir / "mav0" / "imu0" / "data.csv";
@@ -103,7 +88,7 @@ json static_init_area(const AreaOptions& o) {
     std::printf("| static initialization, EuRoC V1_01_micro | %s missing |\n", dir.c_str());
     return {{"status", "missing data"}};
   }
-  const std::vector<ImuSample> imu = read_euroc_imu(imu_csv);
+  const std::vector<ImuSample> imu = io::parse_asl_imu_csv(io::TextTable::read(imu_csv.string()));
   const auto t0 = std::chrono::steady_clock::now();
   const imu::StaticInitResult r = imu::static_initialize(imu);
   const double ms =
