@@ -164,6 +164,34 @@ std::vector<ObjectDatabase::Measurement> ObjectDatabase::measure_all(
   }
   if (boxes.empty()) return {};
 
+  // The camera point of pixel (u, v) on a surface that may belong to an object: a valid depth
+  // in range, not a mover, above the floor band.
+  auto surface_point = [&](int u, int v, Eigen::Vector3f& out) {
+    const auto* row = d.row<std::uint16_t>(v);
+    if (row[u] == 0) return false;
+    if (masked && (*kf.static_mask)[static_cast<std::size_t>(v) * d.width + u] == 0) return false;
+    const double z0 = row[u] / kf.depth_scale;
+    if (z0 < options_.min_depth || z0 > options_.max_depth) return false;
+    // Depth noise is per pixel: averaging the neighbours on the same surface (within a few
+    // sigma) divides it by up to 2r+1 before the geometry sees it.
+    const double tol = (2.5 * options_.depth_noise_z2 * z0 * z0 + 0.02) * kf.depth_scale;
+    double sum = 0.0;
+    int n = 0;
+    for (int yy = std::max(0, v - r); yy <= std::min(d.height - 1, v + r); ++yy) {
+      const auto* nrow = d.row<std::uint16_t>(yy);
+      for (int xx = std::max(0, u - r); xx <= std::min(d.width - 1, u + r); ++xx) {
+        if (nrow[xx] == 0 || std::abs(static_cast<double>(nrow[xx]) - row[u]) > tol) continue;
+        sum += nrow[xx];
+        ++n;
+      }
+    }
+    const double z = sum / n / kf.depth_scale;
+    const Vec3 pc = kf.camera.unproject(Vec2(u, v)) * z;
+    if (has_floor() && (R * pc + t).z() < floor_z_ + floor_cut(z)) return false;
+    out = pc.cast<float>();
+    return true;
+  };
+
   // Depth points on one stride-aligned lattice over the union of the boxes, so that a pixel
   // seen by two overlapping boxes is one point and belongs to at most one of their clusters.
   std::vector<std::uint8_t> visited(static_cast<std::size_t>(d.width) * d.height, 0);
@@ -175,35 +203,13 @@ std::vector<ObjectDatabase::Measurement> ObjectDatabase::measure_all(
     const int y0 = std::clamp(static_cast<int>(std::floor(det->y_min)), 0, d.height);
     const int y1 = std::clamp(static_cast<int>(std::ceil(det->y_max)), 0, d.height);
     for (int v = (y0 + s - 1) / s * s; v < y1; v += s) {
-      const auto* row = d.row<std::uint16_t>(v);
       for (int u = (x0 + s - 1) / s * s; u < x1; u += s) {
         const std::size_t idx = static_cast<std::size_t>(v) * d.width + u;
         if (visited[idx]) continue;
         visited[idx] = 1;
-        if (row[u] == 0) continue;
-        if (masked && (*kf.static_mask)[idx] == 0) continue;
-        const double z0 = row[u] / kf.depth_scale;
-        if (z0 < options_.min_depth || z0 > options_.max_depth) continue;
-        // Depth noise is per pixel: averaging the neighbours on the same surface (within a few
-        // sigma) divides it by up to 2r+1 before the geometry sees it.
-        const double tol = (2.5 * options_.depth_noise_z2 * z0 * z0 + 0.02) * kf.depth_scale;
-        double sum = 0.0;
-        int n = 0;
-        for (int yy = std::max(0, v - r); yy <= std::min(d.height - 1, v + r); ++yy) {
-          const auto* nrow = d.row<std::uint16_t>(yy);
-          for (int xx = std::max(0, u - r); xx <= std::min(d.width - 1, u + r); ++xx) {
-            if (nrow[xx] == 0 || std::abs(static_cast<double>(nrow[xx]) - row[u]) > tol) continue;
-            sum += nrow[xx];
-            ++n;
-          }
-        }
-        const double z = sum / n / kf.depth_scale;
-        const Vec3 pc = kf.camera.unproject(Vec2(u, v)) * z;
-        if (has_floor()) {
-          const double zw = (R * pc + t).z();
-          if (zw < floor_z_ + floor_cut(z)) continue;
-        }
-        pts.push_back(pc.cast<float>());
+        Eigen::Vector3f pc;
+        if (!surface_point(u, v, pc)) continue;
+        pts.push_back(pc);
         px.emplace_back(u, v);
       }
     }
@@ -298,6 +304,50 @@ std::vector<ObjectDatabase::Measurement> ObjectDatabase::measure_all(
     }
   }
 
+  // Whether the surface a box's cluster lies on goes on past an edge of the box that is not the
+  // image border, on most of that edge: the detector bounds its object, so a cluster that does
+  // not end at the box is a part of something larger seen through the box (a stall in front of
+  // a table it hides). Pixels just outside the box count when they hold a surface point at the
+  // depth of the cluster's edge point beside them and lie in no other static box (a chair tucked
+  // against its table continues into the table's box).
+  auto continues_past_box = [&](const PixelBox& box, const std::vector<int>& members) {
+    const int x0 = static_cast<int>(std::floor(box.x0)), x1 = static_cast<int>(std::ceil(box.x1));
+    const int y0 = static_cast<int>(std::floor(box.y0)), y1 = static_cast<int>(std::ceil(box.y1));
+    // Edges: 0 left, 1 right, 2 top, 3 bottom; the lattice line just outside each.
+    const int out_line[4] = {(x0 - 1) / s * s, (x1 + s - 1) / s * s, (y0 - 1) / s * s,
+                             (y1 + s - 1) / s * s};
+    const bool interior[4] = {x0 >= s, x1 + s <= d.width - 1, y0 >= s, y1 + s <= d.height - 1};
+    int cont[4] = {0, 0, 0, 0};
+    auto in_other_box = [&](int u, int v) {
+      for (const detect::Detection& o : kf.static_boxes) {
+        const PixelBox ob = to_box(o);
+        if (ob.x0 == box.x0 && ob.y0 == box.y0 && ob.x1 == box.x1 && ob.y1 == box.y1) continue;
+        if (u >= ob.x0 && u < ob.x1 && v >= ob.y0 && v < ob.y1) return true;
+      }
+      return false;
+    };
+    for (int i : members) {
+      const int u = px[i].x(), v = px[i].y();
+      const bool at[4] = {u < x0 + 2 * s, u + 2 * s >= x1, v < y0 + 2 * s, v + 2 * s >= y1};
+      for (int e = 0; e < 4; ++e) {
+        if (!interior[e] || !at[e]) continue;
+        const int uo = e < 2 ? out_line[e] : u, vo = e < 2 ? v : out_line[e];
+        if (uo < 0 || uo >= d.width || vo < 0 || vo >= d.height || in_other_box(uo, vo)) continue;
+        Eigen::Vector3f q;
+        if (!surface_point(uo, vo, q)) continue;
+        const double z = pts[i].z();
+        cont[e] += std::abs(q.z() - z) <
+                   options_.cluster_tolerance + 3.0 * options_.depth_noise_z2 * z * z;
+      }
+    }
+    // Share of the edge's length: two lattice lines along it.
+    const double lines[4] = {2.0 * (y1 - y0) / s, 2.0 * (y1 - y0) / s, 2.0 * (x1 - x0) / s,
+                             2.0 * (x1 - x0) / s};
+    for (int e = 0; e < 4; ++e)
+      if (cont[e] >= 4 && cont[e] >= options_.min_edge_continuation * lines[e]) return true;
+    return false;
+  };
+
   std::vector<Measurement> out;
   const Eigen::Matrix3f Rf = R.cast<float>();
   const Eigen::Vector3f tf = t.cast<float>();
@@ -322,6 +372,7 @@ std::vector<ObjectDatabase::Measurement> ObjectDatabase::measure_all(
     m.points_c = thin(members, options_.point_voxel, options_.max_points_per_observation);
     for (const auto& p : m.points_c) m.points_w.push_back(Rf * p + tf);
     m.box = fit_upright_box(m.points_w);
+    m.cut = continues_past_box(box, chosen[b]);
     out.push_back(std::move(m));
   }
   return out;
@@ -379,6 +430,7 @@ int ObjectDatabase::merge_duplicates() {
         for (auto& v : gone.views) keep.views.push_back(std::move(v));
         keep.mean_depth = std::max(keep.mean_depth, gone.mean_depth);
         keep.object.observations += gone.object.observations;
+        keep.object.whole_observations += gone.object.whole_observations;
         keep.object.score_sum += gone.object.score_sum;
         keep.object.first_seen = std::min(keep.object.first_seen, gone.object.first_seen);
         keep.object.last_seen = std::max(keep.object.last_seen, gone.object.last_seen);
@@ -449,6 +501,7 @@ ObjectUpdateStats ObjectDatabase::update(const ObjectKeyframe& kf) {
     }
     SemanticObject& o = match->object;
     ++o.observations;
+    o.whole_observations += m.cut ? 0 : 1;
     o.score_sum += m.score;
     o.first_seen = std::min(o.first_seen, kf.stamp);
     o.last_seen = std::max(o.last_seen, kf.stamp);
@@ -483,7 +536,9 @@ std::vector<SemanticObject> ObjectDatabase::all_objects() const {
 std::vector<SemanticObject> ObjectDatabase::objects() const {
   std::vector<SemanticObject> out;
   for (const auto& [id, e] : entries_)
-    if (e.object.observations >= options_.min_observations) out.push_back(e.object);
+    if (e.object.observations >= options_.min_observations &&
+        e.object.whole_observations >= options_.min_whole_observations)
+      out.push_back(e.object);
   return out;
 }
 

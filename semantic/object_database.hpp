@@ -51,7 +51,13 @@ struct ObjectDatabaseOptions {
   double overlap_voxel = 0.15;  // metres
   double min_overlap = 0.3;
   int min_observations = 3;  // fewer: a mislabel or a passing glimpse, not reported
-  double moving_iou = 0.3;   // a moving box this close to an object's projection removes it
+  // A measurement whose surface goes on past an edge of its box (not the image border) on this
+  // share of that edge is a part of something larger than the box's object: a stall in front of
+  // the table it hides, whose box it fills. An object needs min_whole_observations views that
+  // are not such parts to be reported; until then it is held and fused, tentative.
+  double min_edge_continuation = 0.5;
+  int min_whole_observations = 1;
+  double moving_iou = 0.3;  // a moving box this close to an object's projection removes it
 };
 
 struct ObjectKeyframe {
@@ -72,6 +78,7 @@ struct SemanticObject {
   std::string label;
   UprightBox box;
   int observations = 0;
+  int whole_observations = 0;  // of them, views whose surface ends within the box
   double score_sum = 0.0;
   Timestamp first_seen = 0;
   Timestamp last_seen = 0;
@@ -123,6 +130,7 @@ class ObjectDatabase {
     std::vector<Eigen::Vector3f> points_w;
     UprightBox box;
     double depth = 0.0;  // median camera depth of its cluster
+    bool cut = false;    // its surface goes on past the box: a part of something larger
   };
 
   void update_floor(const ObjectKeyframe& kf);

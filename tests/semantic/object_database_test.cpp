@@ -139,6 +139,40 @@ TEST(ObjectDatabase, FusesViewsIntoOneObjectPerBox) {
   }
 }
 
+// A box that sees only a part of a larger surface (market: a table mostly hidden by the stall
+// in front of it, whose box the stall fills) is not a view of the box's object: the stall's
+// face goes on past the box's bottom and right edges. The object it would make is held as
+// tentative and not reported; the stall's own box, where the face ends, is.
+TEST(ObjectDatabase, ABoxFilledByALargerSurfaceIsTentative) {
+  const AxisBox stall{Vec3(2.0, -0.4, 0.0), Vec3(2.4, 1.0, 1.0)};
+  const AxisBox top_part{Vec3(2.0, -0.4, 0.7), Vec3(2.4, 0.2, 1.0)};
+  const PinholeCamera cam = camera();
+  ObjectDatabase db;
+  for (int k = 0; k < 6; ++k) {
+    const double a = -0.5 + k * 0.2;
+    const SE3 T =
+        look_at(Vec3(2.25 - 1.8 * std::cos(a), 0.6 + 1.8 * std::sin(a), 1.3), Vec3(2.5, 0.6, 0.4));
+    const Image depth = render(cam, T, {stall});
+    ObjectKeyframe kf;
+    kf.keyframe_id = k;
+    kf.T_w_c = T;
+    kf.stamp = from_seconds(k);
+    kf.depth = &depth;
+    kf.camera = cam;
+    kf.static_boxes.push_back(box_of(cam, T, top_part, "dining table"));
+    db.update(kf);
+  }
+  EXPECT_TRUE(db.objects().empty());
+  ASSERT_EQ(db.all_objects().size(), 1u);
+  EXPECT_GE(db.all_objects()[0].observations, 3);
+  EXPECT_EQ(db.all_objects()[0].whole_observations, 0);
+
+  ObjectDatabase whole;
+  observe(whole, 6, {stall}, {"bench"});
+  ASSERT_EQ(whole.objects().size(), 1u);
+  EXPECT_EQ(whole.objects()[0].whole_observations, whole.objects()[0].observations);
+}
+
 TEST(ObjectDatabase, ReanchoringKeyframesMovesTheirObjects) {
   ObjectDatabase db;
   std::vector<SE3> poses;
