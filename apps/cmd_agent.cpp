@@ -124,6 +124,13 @@ void setup_agent(CLI::App& app) {
         static_cast<unsigned long long>(s.link.commands_executed),
         static_cast<unsigned long long>(s.link.commands_duplicate),
         static_cast<unsigned long long>(s.mqtt.sent), s.wall_seconds);
+    std::printf(
+        "agent %s poses: %llu tracked, %llu interpolated, %llu extrapolated (%zu frames not fed "
+        "while the tracker was busy), %.1f per second of wall time\n",
+        flags->id.c_str(), static_cast<unsigned long long>(s.poses.tracked),
+        static_cast<unsigned long long>(s.poses.interpolated),
+        static_cast<unsigned long long>(s.poses.extrapolated), s.frames_dropped,
+        s.wall_seconds > 0 ? static_cast<double>(s.poses_published) / s.wall_seconds : 0.0);
     if (s.video_on) {
       std::printf(
           "agent %s video: %llu viewers served, %llu offers, %llu answers, %llu signaling "

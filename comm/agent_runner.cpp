@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <deque>
 #include <filesystem>
+#include <limits>
 #include <map>
 #include <mutex>
 #include <thread>
@@ -216,7 +217,11 @@ AgentRunSummary run_agent(io::MeasurementSource& source, const AgentRunOptions& 
 
   AgentLink link(options.link, handle);
   link_ptr = &link;
-  TelemetryObserver telemetry(link);
+  TelemetryOptions telemetry_options;
+  telemetry_options.pose.max_wait_ns =
+      options.realtime ? static_cast<std::int64_t>(options.pose_wait_s * 1e9)
+                       : std::numeric_limits<std::int64_t>::max();  // lock-step: always tracked
+  TelemetryObserver telemetry(link, telemetry_options);
   system.add_observer(&telemetry);
   ObjectTelemetry objects(link);
   system.add_observer(&objects);
@@ -306,7 +311,10 @@ AgentRunSummary run_agent(io::MeasurementSource& source, const AgentRunOptions& 
   constexpr Timestamp kImuLead = 300'000'000;
   auto next_paused_status = std::chrono::steady_clock::now();
   Timestamp paused_ns = 0;
+  std::size_t fed_frames = 0;
+  std::chrono::steady_clock::time_point first_frame_wall, last_frame_wall;
   while (auto m = source.next()) {
+    telemetry.poses().poll(wall_clock_ns());
     const Timestamp t = stamp_of(*m);
     if (first < 0) first = t;
     if (t - first < skip) {
@@ -322,6 +330,7 @@ AgentRunSummary run_agent(io::MeasurementSource& source, const AgentRunOptions& 
         next_paused_status = p0 + std::chrono::seconds(1);
       }
       std::this_thread::sleep_for(std::chrono::milliseconds(20));
+      telemetry.poses().poll(wall_clock_ns());
       paused_ns += std::chrono::duration_cast<std::chrono::nanoseconds>(
                        std::chrono::steady_clock::now() - p0)
                        .count();
@@ -329,25 +338,45 @@ AgentRunSummary run_agent(io::MeasurementSource& source, const AgentRunOptions& 
     if (options.realtime) {
       std::this_thread::sleep_until(wall0 + std::chrono::nanoseconds(t - t0 + paused_ns));
     }
+    bool drop = false;
+    if (!std::holds_alternative<ImuSample>(*m)) {
+      telemetry.poses().on_camera_frame(t, wall_clock_ns());
+      last_frame_wall = std::chrono::steady_clock::now();
+      if (fed_frames + summary.frames_dropped == 0) first_frame_wall = last_frame_wall;
+      // A live camera does not wait: while the tracker still has max_frames_in_flight frames,
+      // this one is not fed (its pose is predicted).
+      drop = options.realtime && options.max_frames_in_flight > 0 &&
+             fed_frames >= telemetry.frames_reported() +
+                               static_cast<std::size_t>(options.max_frames_in_flight);
+      if (drop) {
+        ++summary.frames_dropped;
+        telemetry.set_drops(summary.frames_dropped);
+      } else {
+        ++fed_frames;
+      }
+    }
     if (const auto* f = std::get_if<RgbdFrame>(&*m)) {
       ++summary.frames;
       if (video) {
         const VideoOverlay o = overlay.latest();
         video->sender().push_frame(f->color, wall_clock_ns(), &o);
       }
-      recent.push_back(*f);
-      if (recent.size() > 16) recent.pop_front();
+      if (!drop) {
+        recent.push_back(*f);
+        if (recent.size() > 16) recent.pop_front();
+      }
       if (options.progress && summary.frames % 100 == 0) {
         std::printf("  %zu frames, %llu poses published\n", summary.frames,
                     static_cast<unsigned long long>(telemetry.poses_published()));
         std::fflush(stdout);
       }
     }
-    system.feed(*m);
+    if (!drop) system.feed(*m);
     update_map();
     snapshot_objects(false);
   }
   system.finish();
+  telemetry.poses().flush();
   new_keyframes = true;
   last_grid = {};
   update_map();
@@ -359,6 +388,10 @@ AgentRunSummary run_agent(io::MeasurementSource& source, const AgentRunOptions& 
   }
   summary.tracked = system.trajectory().size();
   summary.poses_published = telemetry.poses_published();
+  summary.poses = telemetry.poses().counts();
+  const double replay_s = std::chrono::duration<double>(last_frame_wall - first_frame_wall).count();
+  const std::size_t camera_frames = fed_frames + summary.frames_dropped;
+  summary.camera_rate_hz = replay_s > 0 ? static_cast<double>(camera_frames - 1) / replay_s : 0.0;
   summary.paths_published = paths;
   summary.object_messages = objects.messages();
   summary.object_snapshots = snapshots;

@@ -1,15 +1,16 @@
 #pragma once
 // One agent: replays a measurement source at sensor rate through pipeline::System, publishes
-// its telemetry (pose 30 Hz, status 1 Hz, occupancy-grid deltas from its own keyframes, the
-// semantic object database as deltas on change plus a retained snapshot now and then) and
-// executes the station's commands: pause / resume, goal and return-home (A* on the agent's
-// grid -> published path), save map (trajectory + grid). Teleop is refused: a replayed
+// its telemetry (pose at the camera rate up to 30 Hz, status 1 Hz, occupancy-grid deltas from its
+// own keyframes, the semantic object database as deltas on change plus a retained snapshot now and
+// then) and executes the station's commands: pause / resume, goal and return-home (A* on the
+// agent's grid -> published path), save map (trajectory + grid). Teleop is refused: a replayed
 // recording cannot be steered. With video on, each camera frame also goes to the agent's
 // WebRTC viewers (comm/webrtc_link.hpp) the moment it is fed, stamped with that wall-clock time.
 #include <optional>
 #include <string>
 
 #include "comm/agent_link.hpp"
+#include "comm/pose_stream.hpp"
 #include "comm/webrtc_sender.hpp"
 #include "io/measurement_source.hpp"
 
@@ -32,12 +33,22 @@ struct AgentRunOptions {
   std::string dataset_dir;
   std::string models_dir;
   double objects_snapshot_s = 5.0;  // retained full object snapshot at most this often
+  // Real time: a camera frame that arrives while this many are still with the tracker is not
+  // fed (a live camera does not wait for the tracker; counted as drops in the status) but gets
+  // a predicted pose (comm/pose_stream.hpp), so poses keep the camera rate. 0: every frame is
+  // fed and a slow tracker slows the replay down (back-pressure). Not real time: never drops.
+  int max_frames_in_flight = 2;
+  double pose_wait_s =
+      0.1;  // real time: a frame's tracked pose is awaited this long, then predicted
 };
 
 struct AgentRunSummary {
   std::size_t frames = 0;
+  std::size_t frames_dropped = 0;  // not fed: the tracker was busy (real time)
   std::size_t tracked = 0;
   std::uint64_t poses_published = 0;
+  PoseStreamCounts poses;
+  double camera_rate_hz = 0.0;  // camera frames read per second of wall time (the replay's pace)
   std::uint64_t grid_messages = 0;
   std::uint64_t grid_bytes = 0;
   std::uint64_t paths_published = 0;

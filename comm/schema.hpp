@@ -27,6 +27,9 @@ struct PoseMsg {
   std::uint8_t state = 0;               // tracking::TrackingState as an integer
   std::uint32_t seq = 0;                // per-agent counter: the station checks order and gaps
 };
+// PoseMsg::state of a pose predicted to its frame's stamp from tracked poses (comm/pose_stream):
+// the tracker skipped that frame or had not reported it yet.
+constexpr std::uint8_t kPosePredicted = 4;
 
 struct StatusMsg {
   Timestamp t = 0;

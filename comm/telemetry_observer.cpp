@@ -14,11 +14,13 @@ double process_cpu_seconds() {
 }  // namespace
 
 TelemetryObserver::TelemetryObserver(AgentLink& link, TelemetryOptions options)
-    : link_(link), options_(options), cpu_seconds_at_status_(process_cpu_seconds()) {}
+    : link_(link),
+      options_(options),
+      poses_([&link](const PoseMsg& m) { link.publish(m); }, options.pose),
+      cpu_seconds_at_status_(process_cpu_seconds()) {}
 
 void TelemetryObserver::on_frame(const pipeline::FrameReport& r) {
-  PoseMsg pose;
-  bool send_pose = false, send_status = false;
+  bool send_status = false;
   {
     std::lock_guard lock(mutex_);
     ++frames_;
@@ -26,23 +28,10 @@ void TelemetryObserver::on_frame(const pipeline::FrameReport& r) {
     state_ = tracking::to_string(r.state);
     dynamic_features_ = static_cast<std::uint32_t>(r.dynamic_features);
     detections_ = static_cast<std::uint32_t>(r.detections);
-    const Timestamp period = static_cast<Timestamp>(1e9 / options_.pose_rate_hz);
-    // 2% slack so a 30 Hz camera is not decimated by stamp jitter.
-    if (last_pose_t_ < 0 || r.t - last_pose_t_ >= period - period / 50) {
-      last_pose_t_ = r.t;
-      pose.t = r.t;
-      const auto& p = r.T_w_body.translation();
-      const auto& q = r.T_w_body.quaternion();
-      pose.p = {p.x(), p.y(), p.z()};
-      pose.q = {q.x(), q.y(), q.z(), q.w()};
-      pose.state = static_cast<std::uint8_t>(r.state);
-      pose.seq = ++seq_;
-      send_pose = true;
-    }
     send_status = std::chrono::steady_clock::now() - last_status_ >=
                   std::chrono::duration<double>(1.0 / options_.status_rate_hz);
   }
-  if (send_pose) link_.publish(pose);
+  poses_.on_tracked(r.t, r.T_w_body, static_cast<std::uint8_t>(r.state), wall_clock_ns());
   if (send_status) publish_status();
 }
 
@@ -80,9 +69,11 @@ void TelemetryObserver::set_drops(std::uint64_t drops) {
   drops_ = drops;
 }
 
-std::uint64_t TelemetryObserver::poses_published() const {
+std::uint64_t TelemetryObserver::poses_published() const { return poses_.counts().published; }
+
+std::uint64_t TelemetryObserver::frames_reported() const {
   std::lock_guard lock(mutex_);
-  return seq_;
+  return frames_;
 }
 
 }  // namespace kestrel::comm

@@ -1,19 +1,21 @@
 #pragma once
-// The pipeline's telemetry sink (pipeline::Observer, DSO's output-wrapper seam): turns frame
-// reports into pose messages at up to pose_rate_hz (by sensor time), a status at status_rate_hz
-// (by wall time) and a detections summary with each status. Runs on the tracking thread; it
-// only encodes and queues, the network work happens on the MQTT loop thread.
+// The pipeline's telemetry sink (pipeline::Observer, DSO's output-wrapper seam): hands frame
+// reports to the pose stream (comm/pose_stream.hpp: one pose per camera frame up to
+// pose.rate_hz by sensor time, predicted for frames the tracker skipped), a status at
+// status_rate_hz (by wall time) and a detections summary with each status. Runs on the
+// tracking thread; it only encodes and queues, the network work happens on the MQTT loop thread.
 #include <chrono>
 #include <mutex>
 #include <string>
 
 #include "comm/agent_link.hpp"
+#include "comm/pose_stream.hpp"
 #include "pipeline/system.hpp"
 
 namespace kestrel::comm {
 
 struct TelemetryOptions {
-  double pose_rate_hz = 30.0;
+  PoseStreamOptions pose;  // rate_hz 30
   double status_rate_hz = 1.0;
 };
 
@@ -27,13 +29,15 @@ class TelemetryObserver : public pipeline::Observer {
   void set_drops(std::uint64_t drops);
 
   std::uint64_t poses_published() const;
+  std::uint64_t frames_reported() const;
+  // The replay loop registers every camera frame here (fed or dropped) and polls it.
+  PoseStream& poses() { return poses_; }
 
  private:
   AgentLink& link_;
   TelemetryOptions options_;
+  PoseStream poses_;
   mutable std::mutex mutex_;
-  Timestamp last_pose_t_ = -1;
-  std::uint32_t seq_ = 0;
   std::string state_ = "initializing";
   std::uint64_t frames_ = 0, lost_ = 0, drops_ = 0;
   std::uint64_t frames_at_status_ = 0;
