@@ -31,6 +31,8 @@ struct RunFlags {
   std::string config;
   std::string detector = "yolo";
   std::string dynamic = "hybrid";
+  std::string mode = "auto";
+  bool no_loop = false;
   bool realtime = false;
 };
 
@@ -179,6 +181,11 @@ void setup_run(CLI::App& app) {
       ->check(CLI::IsMember({"yolo", "oracle", "none"}));
   cmd->add_option("--dynamic", flags->dynamic, "hybrid | detection | geometry | off")
       ->check(CLI::IsMember({"hybrid", "detection", "geometry", "off"}));
+  cmd->add_option("--mode", flags->mode,
+                  "auto (the richest the dataset offers) | rgbd | rgbd-imu | stereo | stereo-imu")
+      ->check(CLI::IsMember({"auto", "rgbd", "rgbd-imu", "stereo", "stereo-imu"}))
+      ->capture_default_str();
+  cmd->add_flag("--no-loop", flags->no_loop, "no loop closing (odometry and local map only)");
   cmd->add_flag("--realtime", flags->realtime,
                 "threads run free (detection may lag and drop) instead of in lock-step");
   cmd->callback([flags] {
@@ -192,6 +199,8 @@ void setup_run(CLI::App& app) {
     opt.dynamic = *kestrel::dynamic::filter_mode_from_string(flags->dynamic);
     opt.sequential = !flags->realtime;
     opt.out_dir = flags->out;
+    opt.mode = flags->mode;
+    opt.loop_closing = !flags->no_loop;
     const RunSummary summary = kestrel::pipeline::run_sequence(*source, opt);
     print_summary("run", summary);
     kestrel::report::ReportInput report;

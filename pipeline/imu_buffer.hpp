@@ -25,6 +25,7 @@ class ImuBuffer {
   std::size_t size() const { return samples_.size(); }
   std::size_t rejected() const { return rejected_; }
   Timestamp latest() const { return samples_.empty() ? 0 : samples_.back().t; }
+  Timestamp earliest() const { return samples_.empty() ? 0 : samples_.front().t; }
 
  private:
   std::deque<ImuSample> samples_;

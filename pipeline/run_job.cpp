@@ -87,6 +87,24 @@ std::vector<std::size_t> strip_indices(std::size_t total, std::size_t n) {
 
 }  // namespace
 
+bool mode_uses_imu(const std::string& mode, const Calibration& calib) {
+  if (mode == "auto") return calib.has_imu;
+  const bool stereo = mode.rfind("stereo", 0) == 0;
+  const bool with_imu = mode.ends_with("-imu");
+  if (mode != "rgbd" && mode != "rgbd-imu" && mode != "stereo" && mode != "stereo-imu") {
+    throw Error("--mode: unknown mode '" + mode + "' (auto, rgbd, rgbd-imu, stereo or stereo-imu)");
+  }
+  if (stereo != calib.is_stereo()) {
+    throw Error("--mode " + mode + ": the dataset is " +
+                (calib.is_stereo() ? "stereo" : "RGB-D / monocular") + ", not " +
+                (stereo ? "stereo" : "RGB-D"));
+  }
+  if (with_imu && !calib.has_imu) {
+    throw Error("--mode " + mode + ": the dataset's calibration has no IMU");
+  }
+  return with_imu;
+}
+
 RunSummary run_sequence(io::MeasurementSource& source, const RunOptions& options) {
   std::unique_ptr<detect::Detector> detector;
   if (options.detector == "yolo") {
@@ -106,6 +124,8 @@ RunSummary run_sequence(io::MeasurementSource& source, const RunOptions& options
   SystemOptions sys_opt;
   sys_opt.sequential = options.sequential;
   sys_opt.dynamic.mode = options.dynamic;
+  sys_opt.use_imu = mode_uses_imu(options.mode, source.calibration());
+  if (!options.loop_closing) sys_opt.vocabulary.clear();
   // With ground truth, the run's world is the truth's (nearest pose within 20 ms of the first
   // frame), so maps and objects can be scored against it; APE aligns anyway.
   if (auto gt = source.ground_truth(); gt && !gt->empty()) {

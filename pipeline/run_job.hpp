@@ -24,6 +24,10 @@ struct RunOptions {
   detect::OracleOptions oracle;   // noise of the oracle detector (false negatives, jitter)
   dynamic::FilterMode dynamic = dynamic::FilterMode::kHybrid;
   bool sequential = true;
+  // auto | rgbd | rgbd-imu | stereo | stereo-imu; auto takes the richest the dataset offers.
+  // A mode the dataset cannot give (stereo of an RGB-D sequence, IMU without one) is an error.
+  std::string mode = "auto";
+  bool loop_closing = true;
   std::string out_dir;     // trajectory.txt, timing.json, summary.json
   std::string models_dir;  // "" = find ../shared/models
   bool progress = true;
@@ -56,6 +60,10 @@ struct RunSummary {
   std::map<std::string, std::size_t> counters;
   std::vector<KeptFrame> strip;
 };
+
+// Whether the run uses the IMU, for a mode and what the calibration offers; throws
+// kestrel::Error naming the mode when the dataset cannot give it.
+bool mode_uses_imu(const std::string& mode, const Calibration& calib);
 
 // Throws kestrel::Error for unknown detectors or unreadable inputs.
 RunSummary run_sequence(io::MeasurementSource& source, const RunOptions& options);

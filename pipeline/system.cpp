@@ -4,6 +4,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <condition_variable>
 #include <filesystem>
 #include <map>
 #include <mutex>
@@ -27,7 +28,8 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-constexpr int kRejectedPatch = 8;  // pixels masked around a feature rejected as dynamic
+constexpr int kRejectedPatch = 8;
+constexpr Timestamp kSecond = 1'000'000'000;  // pixels masked around a feature rejected as dynamic
 
 double ms_since(Clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
@@ -94,7 +96,10 @@ struct System::Impl {
   BoundedQueue<RgbdFrame> detection_frames;
   DetectionBuffer detections;
   std::mutex imu_mutex;
+  std::condition_variable imu_cv;  // IMU sample, frame or end of input arrived
   ImuBuffer imu;
+  Timestamp newest_frame_fed = 0;  // under imu_mutex
+  bool input_closed = false;       // under imu_mutex
   StageStats stats;
   TruthMaskProvider truth;
 
@@ -128,6 +133,11 @@ struct System::Impl {
   bool world_initialized = false;
   Image prev_gray;
   Timestamp prev_t = 0;
+  bool inertial = false;  // IMU used for prediction
+  imu::InertialPredictor predictor;
+  Timestamp imu_fed_until = 0;  // predictor has the IMU up to here
+  std::size_t inertial_frames = 0;
+  std::size_t bridged = 0;  // lost tracks restarted at the IMU's pose
 
   Impl(const Calibration& c, SystemOptions o, std::unique_ptr<detect::Detector> d)
       : calib(c),
@@ -140,7 +150,13 @@ struct System::Impl {
         frames(options.frame_queue, FullPolicy::kBlock),
         detection_frames(options.detection_queue,
                          options.sequential ? FullPolicy::kBlock : FullPolicy::kDropOldest),
-        detections(options.detection_tolerance_ns) {
+        detections(options.detection_tolerance_ns),
+        inertial(calib.has_imu && options.use_imu),
+        predictor([&] {
+          imu::InertialPredictorOptions o = options.inertial;
+          o.noise = calib.imu;
+          return o;
+        }()) {
     if (calib.is_stereo()) {
       stereo = std::make_unique<tracking::StereoMatcher>(calib.stereo_rig(),
                                                          tracker.extractor().options());
@@ -169,6 +185,39 @@ struct System::Impl {
     stereo->compute_depth(f, q.frame.color, q.right);
     stats.record("features.stereo", ms_since(t0));
     return f;
+  }
+
+  // Time synchronization: a frame waits until the IMU has passed its stamp, so that its
+  // interval is integrated exactly. The source is time-ordered, so a newer frame or the end of
+  // input means the IMU for this one will not come; live runs also give up after imu_wait_ms.
+  void wait_for_imu(Timestamp t) {
+    std::unique_lock<std::mutex> lock(imu_mutex);
+    auto ready = [&] { return imu.latest() >= t || newest_frame_fed > t || input_closed; };
+    if (options.sequential) {
+      imu_cv.wait(lock, ready);
+    } else {
+      imu_cv.wait_for(lock, std::chrono::duration<double, std::milli>(options.imu_wait_ms), ready);
+    }
+  }
+
+  // Hands the IMU up to frame t to the predictor and returns its guess of the camera pose.
+  std::optional<SE3> inertial_prediction(Timestamp t) {
+    if (!inertial) return std::nullopt;
+    std::vector<ImuSample> s;
+    {
+      std::lock_guard<std::mutex> lock(imu_mutex);
+      if (!imu.empty()) {
+        const Timestamp from = std::max(imu_fed_until, std::max(imu.earliest(), t - kSecond));
+        s = imu.between(from, t);
+      }
+    }
+    if (s.empty()) return std::nullopt;
+    predictor.add_samples(s);
+    imu_fed_until = t;
+    if (tracker.state() == tracking::TrackingState::kInitializing) return std::nullopt;
+    const auto p = predictor.predict(t);
+    if (!p) return std::nullopt;
+    return p->T_w_b * calib.T_body_camera;
   }
 
   void process(QueuedFrame& q) {
@@ -206,6 +255,12 @@ struct System::Impl {
     stats.record("features", ms_since(t0));
     report.features = static_cast<int>(features.size());
 
+    if (calib.has_imu) {
+      t0 = Clock::now();
+      wait_for_imu(frame.t);
+      stats.record("imu_wait", ms_since(t0));
+    }
+
     // Dynamic filter against the previous frame.
     t0 = Clock::now();
     const Image gray = to_gray(frame.color);
@@ -222,7 +277,6 @@ struct System::Impl {
       {
         std::lock_guard<std::mutex> lock(imu_mutex);
         if (calib.has_imu) in.R_cur_prev = gyro_rotation(imu, prev_t, frame.t, calib.T_body_camera);
-        imu.drop_before(frame.t - 1'000'000'000);
       }
       const dynamic::DynamicFilterResult r = dynamic::classify_features(in, options.dynamic);
       for (std::size_t i = 0; i < keep.size(); ++i) {
@@ -240,6 +294,10 @@ struct System::Impl {
           truth(frame.t));
     }
     stats.record("dynamic_filter", ms_since(t0));
+    {
+      std::lock_guard<std::mutex> lock(imu_mutex);
+      imu.drop_before(frame.t - kSecond);
+    }
     prev_gray = gray;
     prev_t = frame.t;
 
@@ -249,9 +307,19 @@ struct System::Impl {
     for (std::size_t i = 0; i < keep.size(); ++i) report.feature_dynamic[i] = keep[i] ? 0 : 1;
 
     if (!world_initialized) initialize_world(frame.t);
+    const std::optional<SE3> predicted = inertial_prediction(frame.t);
     t0 = Clock::now();
-    const tracking::TrackResult tr = tracker.track(std::move(features), {}, &keep);
+    const tracking::TrackResult tr = tracker.track(std::move(features), predicted, &keep);
     stats.record("tracking", ms_since(t0));
+    if (inertial) {
+      const SE3 T_w_b = tr.T_w_c * calib.T_body_camera.inverse();
+      // A relocalized pose is not continuous with the fixes before the loss.
+      if (tr.state == tracking::TrackingState::kRelocalized) predictor.clear_fixes();
+      if (tr.state == tracking::TrackingState::kOk ||
+          tr.state == tracking::TrackingState::kRelocalized) {
+        predictor.add_fix(frame.t, T_w_b);
+      }
+    }
     stats.record("tracking.match", tr.times.match_ms);
     stats.record("tracking.optimize", tr.times.optimize_ms);
     if (tr.new_keyframe) stats.record("mapping.keyframe", tr.times.keyframe_ms);
@@ -260,12 +328,19 @@ struct System::Impl {
     report.inliers = tr.inliers;
     report.keyframe = tr.new_keyframe;
     report.T_w_body = tr.T_w_c * calib.T_body_camera.inverse();
+    if (tr.state == tracking::TrackingState::kLost && predicted) {
+      // Lost, but the IMU still knows where the body is (for max_gap_s).
+      report.T_w_body = *predicted * calib.T_body_camera.inverse();
+      report.inertial_only = true;
+    }
     report.latency_ms = ms_since(q.arrival);
     stats.record("frame_latency", report.latency_ms);
     {
       std::lock_guard<std::mutex> lock(result_mutex);
       if (tr.state == tracking::TrackingState::kLost) ++lost;
-      if (tr.state != tracking::TrackingState::kLost) {
+      if (report.inertial_only) ++inertial_frames;
+      if (tr.bridged) ++bridged;
+      if (tr.state != tracking::TrackingState::kLost || report.inertial_only) {
         trajectory.push_back(to_seconds(frame.t), report.T_w_body);
       }
       removal += report.removal;
@@ -454,10 +529,24 @@ void System::set_truth_masks(TruthMaskProvider provider) { impl_->truth = std::m
 
 void System::feed(const Measurement& m) {
   if (const auto* imu = std::get_if<ImuSample>(&m)) {
-    std::lock_guard<std::mutex> lock(impl_->imu_mutex);
-    impl_->imu.add(*imu);
+    {
+      std::lock_guard<std::mutex> lock(impl_->imu_mutex);
+      impl_->imu.add(*imu);
+    }
+    impl_->imu_cv.notify_all();
     return;
   }
+  {
+    // Frames arrive in time order with the IMU: once one is fed, no IMU sample older than it
+    // will come (wait_for_imu stops waiting for the frames before it).
+    std::lock_guard<std::mutex> lock(impl_->imu_mutex);
+    if (const auto* f = std::get_if<RgbdFrame>(&m)) {
+      impl_->newest_frame_fed = std::max(impl_->newest_frame_fed, f->t);
+    } else if (const auto* s = std::get_if<StereoFrame>(&m)) {
+      impl_->newest_frame_fed = std::max(impl_->newest_frame_fed, s->t);
+    }
+  }
+  impl_->imu_cv.notify_all();
   if (const auto* f = std::get_if<RgbdFrame>(&m)) {
     if (impl_->detector) impl_->detection_frames.push(*f);
     impl_->frames.push(QueuedFrame{*f, Clock::now(), Image{}});
@@ -474,6 +563,11 @@ void System::feed(const Measurement& m) {
 
 void System::finish() {
   if (impl_->finished.exchange(true)) return;
+  {
+    std::lock_guard<std::mutex> lock(impl_->imu_mutex);
+    impl_->input_closed = true;
+  }
+  impl_->imu_cv.notify_all();
   impl_->detection_frames.close();
   impl_->frames.close();
   if (impl_->tracking_thread.joinable()) impl_->tracking_thread.join();
@@ -490,6 +584,8 @@ void System::finish() {
   impl_->stats.set_counter("detection.late", impl_->detections.late());
   impl_->stats.set_counter("imu.rejected", impl_->imu.rejected());
   impl_->stats.set_counter("frames.lost", frames_lost());
+  impl_->stats.set_counter("frames.inertial_only", impl_->inertial_frames);
+  impl_->stats.set_counter("tracking.bridged", impl_->bridged);
 }
 
 void System::write_map_outputs(const std::string& dir) const {

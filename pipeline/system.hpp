@@ -2,7 +2,8 @@
 // The running SLAM system (DESIGN.md "Data flow of one frame"). Fed time-ordered measurements;
 // owns the threads:
 //   detection thread: frame -> Detector -> DetectionBuffer (newest wins when it falls behind)
-//   tracking thread : IMU since last frame -> rotation prediction; features -> dynamic filter
+//   tracking thread : waits for the IMU to pass the frame's stamp; IMU since last frame ->
+//                     pose prediction (imu::InertialPredictor); features -> dynamic filter
 //                     (boxes matched by stamp, flow, epipolar, homography/IMU) -> static
 //                     features -> tracker (pose, keyframes, map) -> observers
 // Local mapping currently runs inside the tracker (TrackerOptions::inline_mapping); the loop
@@ -19,6 +20,7 @@
 #include "detect/detector.hpp"
 #include "dynamic/dynamic_filter.hpp"
 #include "dynamic/removal_metrics.hpp"
+#include "imu/inertial_predictor.hpp"
 #include "pipeline/stage_stats.hpp"
 #include "semantic/object_database.hpp"
 #include "tracking/tracker.hpp"
@@ -40,6 +42,12 @@ struct SystemOptions {
   // Place-recognition vocabulary (kestrel vocab); empty or missing: no loop closing.
   std::string vocabulary = std::string(KESTREL_SOURCE_DIR) + "/config/vocabulary.kvoc";
   std::string load_map;  // map.bin of an earlier session: relocalize in it (multi-session)
+  // RGB-D + IMU / stereo + IMU: the IMU predicts each frame's pose for the tracker and carries
+  // the pose through a lost track (when the calibration has an IMU). Off: visual only.
+  bool use_imu = true;
+  imu::InertialPredictorOptions inertial;  // noise is taken from the calibration
+  // Live (not sequential) runs wait at most this long for the IMU to pass a frame's stamp.
+  double imu_wait_ms = 20.0;
 };
 
 // What observers get for every frame (DSO's Output3DWrapper seam: writers, telemetry, report).
@@ -47,6 +55,7 @@ struct FrameReport {
   Timestamp t = 0;
   SE3 T_w_body;
   tracking::TrackingState state = tracking::TrackingState::kInitializing;
+  bool inertial_only = false;  // lost, and T_w_body is the IMU's dead reckoning
   int features = 0;
   int dynamic_features = 0;
   int inliers = 0;

@@ -176,6 +176,17 @@ TrackResult Tracker::track(FrameFeatures f, const std::optional<SE3>& predicted,
   const bool ok = pose.ok && pose.inliers >= needed && pose.T_c_w.is_finite();
   res.matches = m.count;
   res.inliers = ok ? pose.inliers : 0;
+  if (!ok && relocalizing && predicted && options_.bridge_after_lost_frames > 0 &&
+      lost_frames_ + 1 >= options_.bridge_after_lost_frames) {
+    res.times.optimize_ms = optimize_ms;
+    const auto tk = Clock::now();
+    if (start_local_map(std::move(f), *predicted, res)) {
+      res.bridged = true;
+      res.times.keyframe_ms = ms_since(tk);
+      res.times.total_ms = ms_since(t0);
+      return res;
+    }
+  }
   if (!ok) {
     if (relocalizing) {
       ++lost_frames_;
@@ -227,14 +238,17 @@ TrackResult Tracker::initialize(FrameFeatures&& f, const std::optional<SE3>& pre
   TrackResult res;
   const SE3 T_w_c = predicted ? *predicted : initial_T_w_c_;
   res.T_w_c = T_w_c;
+  res.state = TrackingState::kInitializing;
+  start_local_map(std::move(f), T_w_c, res);
+  return res;
+}
+
+bool Tracker::start_local_map(FrameFeatures&& f, const SE3& T_w_c, TrackResult& res) {
   int with_depth = 0;
   for (std::size_t i = 0; i < f.size(); ++i) {
     with_depth += f.has_depth(i) && f.status[i] == FeatureStatus::kStatic ? 1 : 0;
   }
-  if (with_depth < options_.min_init_points) {
-    res.state = TrackingState::kInitializing;
-    return res;
-  }
+  if (with_depth < options_.min_init_points) return false;
   const KeyframeId kid = map_.add_keyframe(f.t, T_w_c, std::move(f));
   map_.create_points_from_depth(kid, std::numeric_limits<int>::max(), options_.features.max_depth);
   reference_kf_ = last_kf_ = kid;
@@ -246,11 +260,14 @@ TrackResult Tracker::initialize(FrameFeatures&& f, const std::optional<SE3>& pre
   state_ = TrackingState::kOk;
   last_T_w_c_ = T_w_c;
   velocity_.reset();
+  coast_velocity_.reset();
+  lost_frames_ = 0;
+  res.T_w_c = T_w_c;
   res.state = state_;
   res.new_keyframe = true;
   res.keyframe_id = kid;
   res.inliers = res.matches = static_cast<int>(last_matches_.size());
-  return res;
+  return true;
 }
 
 std::vector<PointId> Tracker::relocalization_candidates(const FrameFeatures& f) const {

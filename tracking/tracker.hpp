@@ -44,6 +44,11 @@ struct TrackerOptions {
   // tracked around that guess (a walker filling the view, a pillar passing close); only then
   // does relocalization search the whole map. 0: relocalize at once.
   int coast_frames = 30;
+  // With a prediction from outside (the IMU), a track still lost after this many frames, in a
+  // frame with enough static depth, restarts the local map at the predicted pose: a turn into
+  // unmapped space or a close obstacle that hid the map should not end the track, and the IMU
+  // has only drifted for that long. The old map stays; loop closing joins the two. 0: never.
+  int bridge_after_lost_frames = 6;
   // Keyframe decision (ORB-SLAM, RGB-D variant).
   double keyframe_ratio = 0.75;  // tracked / reference keyframe's tracked points
   int max_frames_between_keyframes = 30;
@@ -71,6 +76,7 @@ struct TrackResult {
   int inliers = 0;
   int matches = 0;
   bool new_keyframe = false;
+  bool bridged = false;                  // lost, restarted at the predicted pose (TrackerOptions)
   mapping::KeyframeId keyframe_id = -1;  // the new keyframe, when there is one
   StageTimes times;
 };
@@ -116,6 +122,8 @@ class Tracker {
   mapping::KeyframeId insert_keyframe(FrameFeatures&& f, const Matched& m, const SE3& T_w_c);
   void update_reference(const Matched& m);
   TrackResult initialize(FrameFeatures&& f, const std::optional<SE3>& predicted);
+  // A keyframe at T_w_c seeding points from its depth; false when it has too few.
+  bool start_local_map(FrameFeatures&& f, const SE3& T_w_c, TrackResult& res);
 
   PinholeCamera camera_;
   TrackerOptions options_;

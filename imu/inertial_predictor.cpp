@@ -1,0 +1,217 @@
+#include "imu/inertial_predictor.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/Cholesky>
+
+#include "imu/preintegration.hpp"
+
+namespace kestrel::imu {
+
+InertialPredictor::InertialPredictor(const InertialPredictorOptions& options)
+    : options_(options),
+      acc_bias_cov_(Mat3::Identity() * options.initial_acc_bias_sigma *
+                    options.initial_acc_bias_sigma),
+      gyro_bias_cov_(Mat3::Identity() * options.initial_gyro_bias_sigma *
+                     options.initial_gyro_bias_sigma) {}
+
+void InertialPredictor::add_samples(std::span<const ImuSample> samples) {
+  for (const ImuSample& s : samples) {
+    if (!imu_.empty() && s.t <= imu_.back().t) continue;
+    if (!s.gyro.allFinite() || !s.acc.allFinite()) continue;
+    imu_.push_back(s);
+  }
+  if (imu_.empty()) return;
+  const Timestamp keep_from = imu_.back().t - from_seconds(options_.buffer_s);
+  // One sample before the horizon stays, for interpolation at it.
+  while (imu_.size() > 2 && imu_[1].t < keep_from) imu_.pop_front();
+}
+
+std::vector<ImuSample> InertialPredictor::samples_between(Timestamp t0, Timestamp t1) const {
+  std::vector<ImuSample> out;
+  if (imu_.empty() || imu_.front().t > t0 || imu_.back().t < t1) return out;
+  auto first = std::upper_bound(imu_.begin(), imu_.end(), t0,
+                                [](Timestamp t, const ImuSample& s) { return t < s.t; });
+  if (first != imu_.begin()) --first;
+  auto last = std::lower_bound(imu_.begin(), imu_.end(), t1,
+                               [](const ImuSample& s, Timestamp t) { return s.t < t; });
+  if (last != imu_.end()) ++last;
+  out.assign(first, last);
+  return out;
+}
+
+void InertialPredictor::clear_fixes() {
+  fixes_.clear();
+  v_last_.reset();
+  bias_updated_at_ = 0;
+}
+
+void InertialPredictor::add_fix(Timestamp t, const SE3& T_w_b) {
+  if (!T_w_b.is_finite()) return;
+  if (!fixes_.empty() && t <= fixes_.back().t) return;
+  fixes_.push_back({t, T_w_b});
+  const Timestamp keep = from_seconds(std::max(options_.velocity_window_s, options_.bias_window_s));
+  while (fixes_.size() > 2 && fixes_.back().t - fixes_[1].t >= keep) fixes_.pop_front();
+  if (bias_updated_at_ == 0) bias_updated_at_ = fixes_.front().t;
+  if (fixes_.back().t - bias_updated_at_ >= from_seconds(options_.bias_window_s)) {
+    update_biases();
+    bias_updated_at_ = fixes_.back().t;
+  }
+  update_velocity();
+}
+
+namespace {
+
+// Kalman update of a bias estimate x (covariance P) with a measurement z (covariance C).
+void fuse(Vec3& x, Mat3& P, const Vec3& z, const Mat3& C) {
+  const Mat3 K = P * (P + C).inverse();
+  if (!K.allFinite()) return;
+  x += K * (z - x);
+  P = (Mat3::Identity() - K) * P;
+}
+
+}  // namespace
+
+void InertialPredictor::update_biases() {
+  // The fixes of the window that just filled (they start at the previous update).
+  std::size_t first = 0;
+  while (first + 1 < fixes_.size() && fixes_[first].t < bias_updated_at_) ++first;
+  const std::size_t n = fixes_.size() - first;
+  if (n < 6) return;
+  const double window = to_seconds(fixes_.back().t - fixes_[first].t);
+  // Random walk since the last update.
+  const double h = window * options_.noise.rate_hz > 0 ? window : 0.0;
+  acc_bias_cov_ += Mat3::Identity() * options_.noise.acc_walk * options_.noise.acc_walk * h;
+  gyro_bias_cov_ += Mat3::Identity() * options_.noise.gyro_walk * options_.noise.gyro_walk * h;
+
+  // Gyro bias: one Gauss-Newton step from the current estimate. Each fix is paired with the
+  // one half a window later: long baselines, so fix noise weighs little against the bias, and
+  // every fix used once, so the pairs are independent.
+  {
+    const double w = 1.0 / (2.0 * options_.fix_rotation_sigma * options_.fix_rotation_sigma);
+    Mat3 H = Mat3::Zero();
+    Vec3 g = Vec3::Zero();
+    int used = 0;
+    const std::size_t half = n / 2;
+    for (std::size_t i = first; i + half < fixes_.size() && i < first + half; ++i) {
+      const Fix& a = fixes_[i];
+      const Fix& c = fixes_[i + half];
+      const std::vector<ImuSample> s = samples_between(a.t, c.t);
+      if (s.size() < 2) continue;
+      Preintegration pre(bias_, options_.noise);
+      pre.integrate(s, a.t, c.t);
+      const SO3 R_visual = a.T_w_b.so3().inverse() * c.T_w_b.so3();
+      const Vec3 r = (pre.delta_R().inverse() * R_visual).log();
+      if (!r.allFinite() || r.norm() > options_.max_rotation_residual) continue;
+      const Mat3& J = pre.dR_dbg();
+      H += w * J.transpose() * J;
+      g += w * J.transpose() * r;
+      ++used;
+    }
+    if (used >= 3) {
+      const Mat3 C = H.inverse();
+      const Vec3 z = bias_.gyro + C * g;
+      if (C.allFinite() && z.allFinite()) fuse(bias_.gyro, gyro_bias_cov_, z, C);
+    }
+  }
+
+  // Accelerometer bias: fit x = [c, v_first, δb_a] to the window's positions; the offset c
+  // takes the first fix's own noise, which would otherwise bias every term.
+  const Fix& j = fixes_[first];
+  const std::vector<ImuSample> s = samples_between(j.t, fixes_.back().t);
+  if (s.size() < 2) return;
+  using Mat9 = Eigen::Matrix<double, 9, 9>;
+  using Vec9 = Eigen::Matrix<double, 9, 1>;
+  const double w_fix = 1.0 / (options_.fix_sigma * options_.fix_sigma);
+  Mat9 H = Mat9::Zero();
+  Vec9 b = Vec9::Zero();
+  const Mat3 R_j = j.T_w_b.rotation();
+  const Vec3& g = options_.gravity;
+  Preintegration pre(bias_, options_.noise);
+  Timestamp t_prev = j.t;
+  for (std::size_t m = first; m < fixes_.size(); ++m) {
+    if (m > first) pre.integrate(s, t_prev, fixes_[m].t);
+    t_prev = fixes_[m].t;
+    const double tau = pre.dt();
+    const Vec3 y = fixes_[m].T_w_b.translation() - j.T_w_b.translation() - 0.5 * g * tau * tau -
+                   R_j * pre.delta_p();
+    Eigen::Matrix<double, 3, 9> A;
+    A.leftCols<3>() = Mat3::Identity();
+    A.middleCols<3>(3) = tau * Mat3::Identity();
+    A.rightCols<3>() = R_j * pre.dp_dba();
+    H += w_fix * A.transpose() * A;
+    b += w_fix * A.transpose() * y;
+  }
+  const Eigen::LDLT<Mat9> ldlt(H);
+  if (ldlt.info() != Eigen::Success) return;
+  const Vec9 x = ldlt.solve(b);
+  const Mat9 cov = ldlt.solve(Mat9::Identity());
+  if (!x.allFinite() || !cov.allFinite()) return;
+  const Mat3 C = cov.bottomRightCorner<3, 3>();
+  fuse(bias_.acc, acc_bias_cov_, bias_.acc + x.tail<3>(), 0.5 * (C + C.transpose()));
+}
+
+void InertialPredictor::update_velocity() {
+  v_last_.reset();
+  const Fix& k = fixes_.back();
+  std::size_t first = 0;
+  const Timestamp window = from_seconds(options_.velocity_window_s);
+  while (first + 2 < fixes_.size() && k.t - fixes_[first + 1].t >= window) ++first;
+  const Fix& j = fixes_[first];
+  if (k.t - j.t < from_seconds(options_.min_window_s)) return;
+  const std::vector<ImuSample> s = samples_between(j.t, k.t);
+  if (s.size() < 2) return;
+  // v_j by a line fit with the biases held: y_m = c + v_j τ_m (c takes fix j's own noise).
+  const Mat3 R_j = j.T_w_b.rotation();
+  const Vec3& g = options_.gravity;
+  Preintegration pre(bias_, options_.noise);
+  Timestamp t_prev = j.t;
+  double n = 0.0, sum_t = 0.0, sum_tt = 0.0;
+  Vec3 sum_y = Vec3::Zero(), sum_ty = Vec3::Zero();
+  for (std::size_t m = first; m < fixes_.size(); ++m) {
+    if (m > first) pre.integrate(s, t_prev, fixes_[m].t);
+    t_prev = fixes_[m].t;
+    const double tau = pre.dt();
+    const Vec3 y = fixes_[m].T_w_b.translation() - j.T_w_b.translation() - 0.5 * g * tau * tau -
+                   R_j * pre.delta_p();
+    n += 1.0;
+    sum_t += tau;
+    sum_tt += tau * tau;
+    sum_y += y;
+    sum_ty += tau * y;
+  }
+  const double det = n * sum_tt - sum_t * sum_t;
+  if (det <= 0.0) return;
+  const Vec3 v_j = (n * sum_ty - sum_t * sum_y) / det;
+  const Vec3 v_k = v_j + g * pre.dt() + R_j * pre.delta_v();
+  if (v_k.allFinite()) v_last_ = v_k;
+}
+
+std::optional<InertialPrediction> InertialPredictor::predict(Timestamp t) const {
+  if (!v_last_ || fixes_.empty()) return std::nullopt;
+  const Fix& k = fixes_.back();
+  if (t < k.t || t - k.t > from_seconds(options_.max_gap_s)) return std::nullopt;
+  InertialPrediction out;
+  out.since_fix_s = to_seconds(t - k.t);
+  if (t == k.t) {
+    out.T_w_b = k.T_w_b;
+    out.v_w = *v_last_;
+    return out;
+  }
+  const std::vector<ImuSample> s = samples_between(k.t, t);
+  if (s.size() < 2) return std::nullopt;
+  Preintegration pre(bias_, options_.noise);
+  pre.integrate(s, k.t, t);
+  NavState x0;
+  x0.R = k.T_w_b.so3();
+  x0.p = k.T_w_b.translation();
+  x0.v = *v_last_;
+  const NavState x1 = pre.predict(x0, options_.gravity);
+  out.T_w_b = SE3(x1.R, x1.p);
+  out.v_w = x1.v;
+  if (!out.T_w_b.is_finite() || !out.v_w.allFinite()) return std::nullopt;
+  return out;
+}
+
+}  // namespace kestrel::imu

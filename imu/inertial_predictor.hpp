@@ -1,0 +1,95 @@
+#pragma once
+// Pose prediction from the IMU between visual fixes, for the tracker's prior and for dead
+// reckoning through a lost track.
+//
+// Tracking gives a pose (a "fix") per frame but no velocity. Differencing two fixes one frame
+// apart is useless (1 cm of pose noise over 33 ms is 30 cm/s), so the velocity comes from a
+// least-squares fit over a window of fixes, with the accelerometer doing the rest: for every
+// fix m after the window's first fix j,
+//     p_m - p_j - ½ g τ² - R_j ΔP̂_jm  =  v_j τ + R_j (∂ΔP/∂b_a) δb_a,       τ = t_m - t_j,
+// which is linear in the velocity at j and the accelerometer-bias change δb_a. Fitting both
+// on every short window lets fix noise leak into the bias and back into the velocity, so the
+// two are separated: the velocity comes from a short window with the biases held, and the
+// biases from longer, non-overlapping windows (the gyro bias from ΔR̂_{m,m+1} Exp(J δb_g) =
+// R_mᵀ R_{m+1}), each one a measurement with its own covariance for a Kalman update. The
+// velocity at the newest fix then follows from pre-integration, and so does the pose at any
+// later stamp the IMU covers.
+#include <deque>
+#include <optional>
+#include <span>
+#include <vector>
+
+#include "core/imu.hpp"
+#include "core/se3.hpp"
+#include "imu/nav_state.hpp"
+
+namespace kestrel::imu {
+
+struct InertialPredictorOptions {
+  ImuNoise noise;
+  Vec3 gravity = gravity_vector();
+  // Velocity: fit over the newest fixes of this span, biases held. Short, because a bias error
+  // δ leaves about a third of δ·window in the velocity; long enough to average fix noise.
+  double velocity_window_s = 0.5;
+  double min_window_s = 0.2;  // with less history there is no prediction
+  // Biases: every bias_window_s of new fixes gives one independent measurement of both biases
+  // (a fit of velocity and accelerometer bias, and of the gyro bias from rotations), fused
+  // into the running estimate by a Kalman update whose process noise is the bias random walk.
+  double bias_window_s = 2.0;
+  double initial_acc_bias_sigma = 0.1;    // m/s^2
+  double initial_gyro_bias_sigma = 0.01;  // rad/s
+  double fix_sigma = 0.01;                // metres: position noise of a visual fix
+  double fix_rotation_sigma = 2e-3;       // radians: rotation noise of a visual fix
+  double max_rotation_residual = 0.05;    // rad: a fix pair further off is not used for b_g
+  double max_gap_s = 2.0;                 // dead reckoning longer than this is refused
+  double buffer_s = 4.0;                  // IMU history kept
+};
+
+struct InertialPrediction {
+  SE3 T_w_b;
+  Vec3 v_w = Vec3::Zero();   // body velocity in the world
+  double since_fix_s = 0.0;  // how long the IMU alone carried the pose
+};
+
+class InertialPredictor {
+ public:
+  explicit InertialPredictor(const InertialPredictorOptions& options = {});
+
+  // Time-ordered samples; anything not newer than the last one kept is ignored.
+  void add_samples(std::span<const ImuSample> samples);
+  // A visual pose of the body at t (t after the previous fix). Updates the velocity, and the
+  // biases once a new bias window is full.
+  void add_fix(Timestamp t, const SE3& T_w_b);
+  // Forgets the fixes (after a relocalization jump, whose pose is not continuous with them);
+  // biases are kept.
+  void clear_fixes();
+
+  // Body pose at t from the newest fix and the IMU; nothing when the history is too short,
+  // the IMU does not reach t, or the last fix is more than max_gap_s old.
+  std::optional<InertialPrediction> predict(Timestamp t) const;
+
+  const ImuBias& bias() const { return bias_; }
+  std::size_t fixes() const { return fixes_.size(); }
+  // Velocity at the newest fix, once the window is long enough.
+  const std::optional<Vec3>& velocity() const { return v_last_; }
+
+ private:
+  struct Fix {
+    Timestamp t;
+    SE3 T_w_b;
+  };
+  std::vector<ImuSample> samples_between(Timestamp t0, Timestamp t1) const;
+  void update_biases();
+  void update_velocity();
+
+  InertialPredictorOptions options_;
+  std::deque<ImuSample> imu_;
+  std::deque<Fix> fixes_;
+  ImuBias bias_;
+  Mat3 acc_bias_cov_;
+  Mat3 gyro_bias_cov_;
+  Timestamp bias_updated_at_ = 0;  // stamp of the newest fix the biases have seen
+  std::optional<Vec3> v_last_;
+};
+
+}  // namespace kestrel::imu

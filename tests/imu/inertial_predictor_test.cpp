@@ -1,0 +1,125 @@
+// The predictor against the analytic motion: velocity and biases from noisy visual fixes, and
+// dead reckoning through a gap as a lost track needs it.
+#include "imu/inertial_predictor.hpp"
+
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "imu_test_motion.hpp"
+
+namespace kestrel::imu {
+namespace {
+
+using test::Motion;
+
+constexpr double kFrameRate = 30.0;
+constexpr double kImuRate = 200.0;
+
+SE3 noisy_fix(const Motion& m, double t, double sigma_p, double sigma_r, std::mt19937& rng) {
+  std::normal_distribution<double> n(0.0, 1.0);
+  const Vec3 dp(n(rng), n(rng), n(rng));
+  const Vec3 dr(n(rng), n(rng), n(rng));
+  return SE3(m.rotation(t) * SO3::exp(sigma_r * dr), m.position(t) + sigma_p * dp);
+}
+
+// Feeds fixes at frame rate over [0, t_end] and returns the predictor.
+InertialPredictor run(const Motion& m, double t_end, double sigma_p, double sigma_r, unsigned seed,
+                      double imu_until) {
+  InertialPredictor p;
+  std::mt19937 rng(seed);
+  std::vector<ImuSample> imu = m.samples(0.0, imu_until, kImuRate);
+  test::add_noise(imu, ImuNoise{}, 1.0 / kImuRate, rng);
+  // Samples arrive as they would live: up to each frame's stamp, then the rest.
+  std::size_t fed = 0;
+  auto feed_until = [&](double t) {
+    std::size_t n = fed;
+    while (n < imu.size() && to_seconds(imu[n].t) <= t + 1e-9) ++n;
+    p.add_samples(std::span<const ImuSample>(imu.data() + fed, n - fed));
+    fed = n;
+  };
+  for (int f = 0; f / kFrameRate <= t_end; ++f) {
+    const double t = f / kFrameRate;
+    feed_until(t);
+    p.add_fix(from_seconds(t), noisy_fix(m, t, sigma_p, sigma_r, rng));
+  }
+  feed_until(imu_until);
+  return p;
+}
+
+TEST(InertialPredictor, NoPredictionBeforeTheWindowFills) {
+  Motion m;
+  InertialPredictor p;
+  p.add_samples(m.samples(0.0, 1.0, kImuRate));
+  p.add_fix(0, SE3(m.rotation(0.0), m.position(0.0)));
+  EXPECT_FALSE(p.predict(from_seconds(0.033)).has_value());
+}
+
+TEST(InertialPredictor, VelocityFromCentimetreFixes) {
+  const Motion m;
+  const double t_end = 2.0;
+  InertialPredictor p = run(m, t_end, 0.01, 1e-3, 1, 5.0);
+  ASSERT_TRUE(p.velocity().has_value());
+  const double t_last = std::floor(t_end * kFrameRate) / kFrameRate;
+  const double err = (*p.velocity() - m.velocity(t_last)).norm();
+  // Differencing two fixes a frame apart would be off by ~0.4 m/s here.
+  EXPECT_LT(err, 0.05) << "velocity error " << err << " m/s";
+}
+
+TEST(InertialPredictor, EstimatesBothBiases) {
+  Motion m;
+  m.gyro_bias = Vec3(0.01, -0.02, 0.015);
+  m.acc_bias = Vec3(0.08, -0.05, 0.1);
+  InertialPredictor p = run(m, 6.0, 0.005, 5e-4, 2, 8.0);
+  EXPECT_LT((p.bias().gyro - m.gyro_bias).norm(), 0.003) << p.bias().gyro.transpose();
+  EXPECT_LT((p.bias().acc - m.acc_bias).norm(), 0.04) << p.bias().acc.transpose();
+}
+
+TEST(InertialPredictor, DeadReckonsThroughAOneSecondGap) {
+  Motion m;
+  m.gyro_bias = Vec3(0.005, 0.0, -0.005);
+  m.acc_bias = Vec3(0.03, 0.02, -0.04);
+  const double t_fix = 4.0;
+  InertialPredictor p = run(m, t_fix, 0.005, 5e-4, 3, 8.0);
+  const double t_last = std::floor(t_fix * kFrameRate) / kFrameRate;
+  const auto pred = p.predict(from_seconds(t_last + 1.0));
+  ASSERT_TRUE(pred.has_value());
+  EXPECT_NEAR(pred->since_fix_s, 1.0, 1e-9);
+  const double e_p = (pred->T_w_b.translation() - m.position(t_last + 1.0)).norm();
+  const double e_r = (pred->T_w_b.so3().inverse() * m.rotation(t_last + 1.0)).angle();
+  // A constant-velocity guess over this second of curved motion is off by about a metre.
+  const double e_cv = (m.position(t_last) + m.velocity(t_last) - m.position(t_last + 1.0)).norm();
+  EXPECT_LT(e_p, 0.1) << "position error " << e_p << " m (constant velocity: " << e_cv << ")";
+  EXPECT_LT(e_r, 0.01) << "rotation error " << e_r << " rad";
+  EXPECT_GT(e_cv, 0.3);
+}
+
+TEST(InertialPredictor, RefusesBeyondTheImuAndTheGap) {
+  const Motion m;
+  InertialPredictor p = run(m, 2.0, 0.01, 1e-3, 4, 3.0);
+  const double t_last = std::floor(2.0 * kFrameRate) / kFrameRate;
+  EXPECT_TRUE(p.predict(from_seconds(t_last + 0.5)).has_value());
+  EXPECT_FALSE(p.predict(from_seconds(3.5))) << "the IMU ends at 3 s";
+  InertialPredictor q = run(m, 2.0, 0.01, 1e-3, 4, 8.0);
+  EXPECT_FALSE(q.predict(from_seconds(t_last + 2.5))) << "longer than max_gap_s";
+  q.clear_fixes();
+  EXPECT_FALSE(q.predict(from_seconds(t_last + 0.1)));
+}
+
+TEST(InertialPredictor, IgnoresNonFiniteInput) {
+  const Motion m;
+  InertialPredictor p = run(m, 1.0, 0.01, 1e-3, 5, 3.0);
+  const std::size_t n = p.fixes();
+  SE3 bad(m.rotation(1.5), Vec3(std::nan(""), 0.0, 0.0));
+  p.add_fix(from_seconds(1.5), bad);
+  EXPECT_EQ(p.fixes(), n);
+  ImuSample s = m.sample(3.1);
+  s.acc.x() = std::numeric_limits<double>::infinity();
+  p.add_samples(std::span<const ImuSample>(&s, 1));
+  const auto pred = p.predict(from_seconds(1.2));
+  ASSERT_TRUE(pred.has_value());
+  EXPECT_TRUE(pred->T_w_b.is_finite());
+}
+
+}  // namespace
+}  // namespace kestrel::imu
