@@ -135,7 +135,16 @@ void MapBuilder::write_outputs(const std::string& dir) const {
   const std::filesystem::path d(dir);
   write_ply((d / "cloud.ply").string(), clean_cloud());
   octree_.write_binary((d / "octomap.bt").string());
-  write_map((d / "map.yaml").string(), grid());
+  // No dense input (a stereo or monocular run) leaves no cell: a 0x0 image is no map a
+  // map_server, our reader or the report can load, so there is no grid to write. A stale
+  // grid from an earlier run in the same folder must not pass for this one's.
+  const OccupancyGrid g = grid();
+  if (g.width() == 0 || g.height() == 0) {
+    std::filesystem::remove(d / "map.yaml", ec);
+    std::filesystem::remove(d / "map.pgm", ec);
+    return;
+  }
+  write_map((d / "map.yaml").string(), g);
 }
 
 }  // namespace kestrel::maps

@@ -130,3 +130,24 @@ TEST(MapBuilder, WritesEveryOutputFile) {
   const OccupancyOctree o = OccupancyOctree::read_binary((dir / "octomap.bt").string());
   EXPECT_EQ(o.occupied_voxels().size(), b.octree().occupied_voxels().size());
 }
+
+TEST(MapBuilder, NothingObservedWritesNoGridAndRemovesAStaleOne) {
+  // A stereo run feeds no depth images: no cell is known. Earlier outputs in the same folder
+  // must not pass for this run's.
+  const PinholeCamera cam = test::small_camera();
+  const auto dir = test::temp_dir("maps-empty") / "run";
+  {
+    MapBuilder b;
+    const SE3 T = test::looking_along_x(Vec3(0, 0, 1.0));
+    b.insert(keyframe(cam, T, test::wall_depth(cam, T, 3.0, {})));
+    b.write_outputs(dir.string());
+    ASSERT_TRUE(std::filesystem::exists(dir / "map.yaml"));
+  }
+  MapBuilder empty;
+  ASSERT_EQ(empty.grid().width(), 0);
+  empty.write_outputs(dir.string());
+  EXPECT_FALSE(std::filesystem::exists(dir / "map.yaml"));
+  EXPECT_FALSE(std::filesystem::exists(dir / "map.pgm"));
+  EXPECT_TRUE(std::filesystem::exists(dir / "cloud.ply"));
+  EXPECT_TRUE(std::filesystem::exists(dir / "octomap.bt"));
+}
