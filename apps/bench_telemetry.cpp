@@ -1,12 +1,16 @@
 // Telemetry area: bytes per second per agent on the wire for one agent's stream of a scene,
 // encoded by comm/'s codec at the schema's rates: pose at the camera rate (30 Hz), status and
 // detections 1 Hz, objects on change (each second, the objects seen that second, since each
-// sighting updates the object). MQTT v5 framing is counted, as the broker carries it.
+// sighting updates the object). MQTT v5 framing is counted, as the broker carries it. Then the
+// link over a real mosquitto on loopback (comm/link_bench): pose latency agent -> station p50 /
+// p99, command round trip, and 1 / 5 / 20 / 50 agents on one broker (aggregate bandwidth,
+// broker CPU, dropped messages); without mosquitto that part says so and the rest stands.
 #include <algorithm>
 #include <cstdio>
 
 #include "apps/bench_areas.hpp"
 #include "comm/codec.hpp"
+#include "comm/link_bench.hpp"
 #include "comm/topics.hpp"
 #include "sim/scenario.hpp"
 #include "sim/simulator.hpp"
@@ -81,16 +85,33 @@ nlohmann::json bench_telemetry(const AreaOptions& o) {
       "| pose 30 Hz | status+detections 1 Hz | objects on change | total B/s |\n"
       "|---|---|---|---|\n| %.0f | %.0f | %.0f | %.0f |\n",
       pose / n, status / n, objects / n, (pose + status + objects) / n);
-  // Pose latency needs a broker process; bench_comm (bench/comm_bench.cpp) measures it.
-  std::printf(
-      "\n| pose latency agent -> station | not measured by kestrel bench: run "
-      "build/bench/bench_comm (starts a real mosquitto) |\n|---|---|\n");
+  nlohmann::json link;
+  try {
+    comm::LinkBenchOptions lo;
+    if (o.tiny) {
+      lo.latency_poses = 30;
+      lo.command_round_trips = 20;
+      lo.agent_counts = {1, 5};
+      lo.scale_seconds = 1.0;
+    } else if (o.quick) {
+      lo.scale_seconds = 2.0;
+    }
+    std::printf("\n## Telemetry link (real mosquitto on loopback)\n\n");
+    const comm::LinkBenchResult r = comm::run_link_bench(lo);
+    comm::print_link_bench(r);
+    link = nlohmann::json::parse(comm::link_bench_json(r));
+    link["status"] = "ok";
+  } catch (const std::exception& e) {
+    std::printf("\n| telemetry link | not measured: %s |\n|---|---|\n", e.what());
+    link = {{"status", "skipped"}, {"reason", e.what()}};
+  }
   return {{"scenario", "cafe"},
           {"seconds", seconds},
           {"pose_bytes_per_s", pose / n},
           {"status_bytes_per_s", status / n},
           {"objects_bytes_per_s", objects / n},
-          {"total_bytes_per_s_per_agent", (pose + status + objects) / n}};
+          {"total_bytes_per_s_per_agent", (pose + status + objects) / n},
+          {"link", link}};
 }
 
 }  // namespace kestrel::bench

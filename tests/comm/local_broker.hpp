@@ -1,40 +1,10 @@
 #pragma once
-// A real mosquitto for integration tests, started through scripts/mosquitto/start_broker.sh on
-// free loopback ports with its password file and ACL. RAII: the destructor always kills the
-// broker and removes its folder, so a failing test leaves no process behind.
-#include <string>
-#include <utility>
-#include <vector>
+// The tests' broker is comm/'s (the benchmarks start the same one).
+#include "comm/local_broker.hpp"
 
 namespace kestrel::test {
 
-class LocalBroker {
- public:
-  // users: {name, password}; "station" is the one allowed to publish commands.
-  explicit LocalBroker(std::vector<std::pair<std::string, std::string>> users);
-  ~LocalBroker();
-  LocalBroker(const LocalBroker&) = delete;
-  LocalBroker& operator=(const LocalBroker&) = delete;
-
-  int port() const { return port_; }
-  int ws_port() const { return ws_port_; }
-  const std::string& dir() const { return dir_; }
-  bool running() const { return pid_ > 0; }
-
-  // Stops the broker with a signal (SIGKILL: a crash; SIGTERM: a clean shutdown).
-  void stop(int signal);
-  // Starts it again on the same ports with the same folder (persistence included).
-  void start();
-  std::string log() const;
-
- private:
-  std::vector<std::pair<std::string, std::string>> users_;
-  std::string dir_;
-  int port_ = 0;
-  int ws_port_ = 0;
-  int pid_ = -1;
-};
-
-int free_loopback_port();
+using comm::free_loopback_port;
+using comm::LocalBroker;
 
 }  // namespace kestrel::test

@@ -73,6 +73,18 @@ TEST(BenchAreas, TinyRunOfEveryAreaWritesFiniteFigures) {
   EXPECT_GT(number_at(j, "/telemetry/pose_bytes_per_s"), 0);
   EXPECT_GT(number_at(j, "/telemetry/total_bytes_per_s_per_agent"),
             number_at(j, "/telemetry/pose_bytes_per_s"));
+  // The link over a real mosquitto (skipped, with its reason, where none is installed).
+  ASSERT_TRUE(j["telemetry"].contains("link"));
+  if (j["telemetry"]["link"].value("status", "") == "ok") {
+    EXPECT_GT(number_at(j, "/telemetry/link/pose_latency_ms/p50"), 0);
+    EXPECT_GE(number_at(j, "/telemetry/link/pose_latency_ms/p99"),
+              number_at(j, "/telemetry/link/pose_latency_ms/p50"));
+    EXPECT_GT(number_at(j, "/telemetry/link/command_rtt_ms/p50"), 0);
+    ASSERT_EQ(j["telemetry"]["link"]["scale"].size(), 2u);  // --tiny: 1 and 5 agents
+    EXPECT_GT(number_at(j, "/telemetry/link/scale/1/wire_in_kB_per_s"),
+              number_at(j, "/telemetry/link/scale/0/wire_in_kB_per_s"));
+    EXPECT_GT(number_at(j, "/telemetry/link/scale/1/messages_received"), 0);
+  }
 
   ASSERT_TRUE(j.contains("video"));
   if (j["video"].value("status", "") == "ok") {

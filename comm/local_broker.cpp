@@ -1,4 +1,4 @@
-#include "tests/comm/local_broker.hpp"
+#include "comm/local_broker.hpp"
 
 #include <arpa/inet.h>
 #include <netinet/in.h>
@@ -11,10 +11,10 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
-#include <stdexcept>
 #include <thread>
+#include "core/error.hpp"
 
-namespace kestrel::test {
+namespace kestrel::comm {
 namespace {
 
 bool port_open(int port) {
@@ -40,7 +40,7 @@ int free_loopback_port() {
   if (bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)) != 0 ||
       getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &len) != 0) {
     close(fd);
-    throw std::runtime_error("no free loopback port");
+    throw Error("no free loopback port");
   }
   close(fd);
   return ntohs(addr.sin_port);
@@ -49,7 +49,7 @@ int free_loopback_port() {
 LocalBroker::LocalBroker(std::vector<std::pair<std::string, std::string>> users)
     : users_(std::move(users)) {
   char tmpl[] = "/tmp/kestrel-broker-XXXXXX";
-  if (!mkdtemp(tmpl)) throw std::runtime_error("mkdtemp failed");
+  if (!mkdtemp(tmpl)) throw Error("mkdtemp failed");
   dir_ = tmpl;
   port_ = free_loopback_port();
   ws_port_ = free_loopback_port();
@@ -78,7 +78,7 @@ void LocalBroker::start() {
   for (auto& a : args) argv.push_back(a.data());
   argv.push_back(nullptr);
   const pid_t pid = fork();
-  if (pid < 0) throw std::runtime_error("fork failed");
+  if (pid < 0) throw Error("fork failed");
   if (pid == 0) {
     execv(argv[0], argv.data());
     _exit(127);
@@ -89,12 +89,12 @@ void LocalBroker::start() {
     int status = 0;
     if (waitpid(pid_, &status, WNOHANG) == pid_) {
       pid_ = -1;
-      throw std::runtime_error("mosquitto exited at start:\n" + log());
+      throw Error("mosquitto exited at start:\n" + log());
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
   stop(SIGKILL);
-  throw std::runtime_error("mosquitto did not open port " + std::to_string(port_) + "\n" + log());
+  throw Error("mosquitto did not open port " + std::to_string(port_) + "\n" + log());
 }
 
 void LocalBroker::stop(int signal) {
@@ -112,4 +112,4 @@ std::string LocalBroker::log() const {
   return ss.str();
 }
 
-}  // namespace kestrel::test
+}  // namespace kestrel::comm
