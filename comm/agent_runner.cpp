@@ -160,6 +160,24 @@ AgentRunSummary run_agent(io::MeasurementSource& source, const AgentRunOptions& 
       // on may still be unknown; the robot being there proves them free.
       maps::OccupancyGrid g = grid;
       const int r = static_cast<int>(std::ceil(options.robot_radius / g.resolution())) + 1;
+      // Nor may the map reach back to where the robot stands (the first keyframe sees from
+      // its depth range on): the grid grows, unknown, to hold the robot's disc.
+      const double res = g.resolution();
+      const Vec2 lo = g.origin().cwiseMin(start - Vec2::Constant((r + 1) * res));
+      const Vec2 hi = (g.origin() + Vec2(g.width() * res, g.height() * res))
+                          .cwiseMax(start + Vec2::Constant((r + 1) * res));
+      const Eigen::Vector2i shift = ((g.origin() - lo) / res).array().round().cast<int>();
+      const Vec2 origin = g.origin() - shift.cast<double>() * res;
+      const int w = static_cast<int>(std::ceil((hi.x() - origin.x()) / res));
+      const int h = static_cast<int>(std::ceil((hi.y() - origin.y()) / res));
+      if (shift.x() > 0 || shift.y() > 0 || w > g.width() || h > g.height()) {
+        maps::OccupancyGrid grown(std::max(w, g.width() + shift.x()),
+                                  std::max(h, g.height() + shift.y()), res, origin);
+        for (int y = 0; y < g.height(); ++y)
+          for (int x = 0; x < g.width(); ++x)
+            grown.set({x + shift.x(), y + shift.y()}, g.at({x, y}));
+        g = std::move(grown);
+      }
       if (const auto c = g.cell_of(start)) {
         for (int dy = -r; dy <= r; ++dy)
           for (int dx = -r; dx <= r; ++dx) {
