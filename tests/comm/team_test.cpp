@@ -232,10 +232,9 @@ TEST(Team, ThreeAgentsInMarketShareOneMap) {
 
   for (int i = 1; i <= kAgents; ++i) {
     std::ifstream log(dir / ("a" + std::to_string(i) + ".log"));
-    std::string line, last;
+    std::string line;  // the agent's closing lines: its summary and its pose stream
     while (std::getline(log, line))
-      if (line.rfind("agent ", 0) == 0) last = line;
-    std::printf("%s\n", last.c_str());
+      if (line.rfind("agent ", 0) == 0) std::printf("%s\n", line.c_str());
   }
   for (const auto& [agent, f] : final_map.frames) {
     std::printf(
