@@ -21,6 +21,9 @@ static_assert(std::endian::native == std::endian::little,
 
 constexpr char kMagic[8] = {'K', 'S', 'T', 'R', 'L', 'M', 'A', 'P'};
 constexpr char kEnd[4] = {'K', 'E', 'N', 'D'};
+// A keyframe's image side in pixels at most: its feature grid is sized from width and height, so
+// a corrupt size must not allocate gigabytes (a 2^31-pixel-wide keyframe asked for ~10 GB).
+constexpr int kMaxImageSide = 16384;
 
 class Writer {
  public:
@@ -151,7 +154,8 @@ Keyframe read_keyframe(Reader& r) {
   f.height = r.get<std::int32_t>("keyframe.height");
   f.scale_factor = r.get<float>("keyframe.scale_factor");
   f.levels = r.get<std::int32_t>("keyframe.levels");
-  if (f.width <= 0 || f.height <= 0 || !(f.scale_factor > 1.0f) || f.levels <= 0) {
+  if (f.width <= 0 || f.height <= 0 || f.width > kMaxImageSide || f.height > kMaxImageSide ||
+      !(f.scale_factor > 1.0f) || f.levels <= 0) {
     throw r.fail("keyframe.width", "keyframe " + std::to_string(kf.id) +
                                        " has a bad image size or pyramid (" +
                                        std::to_string(f.width) + "x" + std::to_string(f.height) +

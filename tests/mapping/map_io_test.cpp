@@ -143,6 +143,10 @@ TEST_F(MapIo, BadFilesAreRejectedWithTheirNames) {
     expect_error_naming(good.substr(0, cut), "cut.bin", "truncated");
   }
   expect_error_naming(good + "x", "long.bin", "unexpected bytes");
+  // An image size that would size the feature grid in gigabytes is refused, not allocated.
+  Map huge = deserialize_map(good, "mem");
+  huge.keyframe(huge.keyframes().begin()->first)->features.width = 1 << 30;
+  expect_error_naming(serialize_map(huge), "huge.bin", "keyframe.width");
   EXPECT_THROW(load_map("/nonexistent/map.bin"), Error);
   try {
     load_map("/nonexistent/map.bin");
