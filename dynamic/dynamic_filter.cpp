@@ -80,6 +80,10 @@ const char* to_string(LabelReason r) {
       return "no-geometry";
     case LabelReason::kForegroundInBox:
       return "foreground-in-box";
+    case LabelReason::kDepthChange:
+      return "depth-change";
+    case LabelReason::kLongBaseline:
+      return "long-baseline";
   }
   return "?";
 }
@@ -118,6 +122,8 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
   out.reasons.assign(n, LabelReason::kStaticGeometry);
   out.epipolar_px.assign(n, -1.0f);
   out.residual_px.assign(n, -1.0f);
+  out.residual3d_px.assign(n, -1.0f);
+  out.depth_change.assign(n, -1.0f);
   out.box_of.assign(n, -1);
   out.box_moving.assign(in.boxes.size(), false);
   if (n == 0 || opt.mode == FilterMode::kOff) return out;
@@ -256,6 +262,7 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
   // whatever its depth: no parallax ambiguity, no degeneracy for a still or rotating camera.
   const bool has_depth = in.depth_m.size() == n;
   std::vector<double> residual3d(n, -1.0);
+  std::vector<double> depth_change(n, -1.0), depth_err_m(n, -1.0);
   bool have_3d = false;
   if (has_depth) {
     const Mat3 Kinv = in.K.inverse();
@@ -274,6 +281,23 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
       if (cv::solvePnPRansac(obj, img, cv::Mat(Kcv), cv::noArray(), rvec, tvec, false, 100,
                              kPnpInlierPx, 0.99, inliers, cv::SOLVEPNP_EPNP) &&
           inliers.size() >= 10) {
+        // RANSAC's estimate comes from EPnP on its consensus: refine it by Levenberg-Marquardt
+        // on the reprojection error of the points it explains, twice, so that its small
+        // rotation and translation errors do not grow into a tail of static residuals.
+        for (int round = 0; round < 2; ++round) {
+          std::vector<cv::Point2f> proj;
+          cv::projectPoints(obj, rvec, tvec, cv::Mat(Kcv), cv::noArray(), proj);
+          std::vector<cv::Point3f> obj_in;
+          std::vector<cv::Point2f> img_in;
+          for (std::size_t k = 0; k < obj.size(); ++k) {
+            if (std::hypot(proj[k].x - img[k].x, proj[k].y - img[k].y) <= kPnpInlierPx) {
+              obj_in.push_back(obj[k]);
+              img_in.push_back(img[k]);
+            }
+          }
+          if (obj_in.size() < 10) break;
+          cv::solvePnPRefineLM(obj_in, img_in, cv::Mat(Kcv), cv::noArray(), rvec, tvec);
+        }
         cv::Matx33d R;
         cv::Rodrigues(rvec, R);
         const cv::Vec3d t(tvec.at<double>(0), tvec.at<double>(1), tvec.at<double>(2));
@@ -286,11 +310,37 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
           const double u = Kcv(0, 0) * p[0] / p[2] + Kcv(0, 2);
           const double v = Kcv(1, 1) * p[1] / p[2] + Kcv(1, 2);
           residual3d[i] = std::hypot(u - pts_prev[i].x, v - pts_prev[i].y);
+          if (in.prev_depth && !in.prev_depth->empty()) {
+            // The previous depth around where the flow puts the point; the reading nearest the
+            // prediction in a 3x3 window, so that a point beside a depth step is not judged by
+            // the surface next to it.
+            const int pu = static_cast<int>(std::lround(pts_prev[i].x));
+            const int pv = static_cast<int>(std::lround(pts_prev[i].y));
+            double best = -1.0;
+            for (int dv = -1; dv <= 1; ++dv) {
+              for (int du = -1; du <= 1; ++du) {
+                const int uu = pu + du, vv = pv + dv;
+                if (uu < 0 || vv < 0 || uu >= in.prev_depth->width || vv >= in.prev_depth->height)
+                  continue;
+                const double z = in.prev_depth->row<std::uint16_t>(vv)[uu] / in.depth_scale;
+                if (z <= 0) continue;
+                if (best < 0 || std::fabs(z - p[2]) < std::fabs(best - p[2])) best = z;
+              }
+            }
+            if (best > 0) {
+              depth_err_m[i] = std::fabs(best - p[2]);
+              depth_change[i] = depth_err_m[i] / (p[2] * p[2]);
+            }
+          }
         }
       }
     }
   }
   out.motion_3d = have_3d;
+  for (std::size_t i = 0; i < n; ++i) {
+    out.residual3d_px[i] = static_cast<float>(residual3d[i]);
+    out.depth_change[i] = static_cast<float>(depth_change[i]);
+  }
 
   if (!out.geometry_valid && !out.degenerate_motion && !have_3d) {
     // Not enough background to fit ego-motion: boxes alone decide.
@@ -326,6 +376,18 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
     if (residual3d[i] >= 0 && residual3d[i] <= kPnpInlierPx) scores3d.push_back(residual3d[i]);
     scores2d.push_back(score[i]);
   }
+  std::vector<double> depth_static;
+  for (std::size_t i : cand_idx) {
+    if (depth_change[i] >= 0 && residual3d[i] <= kPnpInlierPx)
+      depth_static.push_back(depth_change[i]);
+  }
+  const double thr_depth = adaptive_threshold(depth_static, opt.depth_k, opt.depth_floor_per_m);
+  out.depth_threshold = depth_static.empty() ? 0.0 : thr_depth;
+  // Depth says the point moved: its depth error is beyond both thresholds.
+  const auto depth_moved = [&](std::size_t i) {
+    return depth_change[i] >= 0 && depth_change[i] > thr_depth &&
+           depth_err_m[i] > opt.depth_min_change_m;
+  };
   const double thr2d = adaptive_threshold(scores2d, opt.adaptive_k, opt.outside_min_threshold_px);
   const double thr3d = adaptive_threshold(scores3d, opt.adaptive_k, opt.residual3d_min_px);
   out.outside_threshold_px = have_3d ? thr3d : thr2d;
@@ -383,7 +445,10 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
       continue;
     }
     if (!in_box) {
-      if (score[i] > thr_out[i]) {
+      if (depth_moved(i) && score[i] <= thr_out[i]) {
+        out.labels[i] = FeatureLabel::kDynamic;
+        out.reasons[i] = LabelReason::kDepthChange;
+      } else if (score[i] > thr_out[i]) {
         if (residual3d[i] >= 0) {
           out.labels[i] = FeatureLabel::kDynamic;
           out.reasons[i] = LabelReason::kFlowResidual;
@@ -420,6 +485,31 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
       }
     }
     if (out.labels[i] == FeatureLabel::kStatic) out.reasons[i] = LabelReason::kStaticInBox;
+  }
+  return out;
+}
+
+DynamicFilterResult combine_baselines(const DynamicFilterResult& short_baseline,
+                                      const DynamicFilterResult& long_baseline,
+                                      const MultiFrameOptions& opt) {
+  DynamicFilterResult out = short_baseline;
+  const std::size_t n = out.labels.size();
+  if (long_baseline.labels.size() != n || long_baseline.residual3d_px.size() != n ||
+      out.residual3d_px.size() != n) {
+    return out;  // not the same points: nothing to combine
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    if (out.labels[i] == FeatureLabel::kDynamic) continue;
+    const LabelReason lr = long_baseline.reasons[i];
+    const bool long_moved =
+        long_baseline.labels[i] == FeatureLabel::kDynamic &&
+        (lr == LabelReason::kFlowResidual || lr == LabelReason::kEpipolarOutside ||
+         lr == LabelReason::kDepthChange) &&
+        long_baseline.residual3d_px[i] > opt.long_residual_px;
+    if (long_moved && out.residual3d_px[i] > opt.short_residual_px) {
+      out.labels[i] = FeatureLabel::kDynamic;
+      out.reasons[i] = LabelReason::kLongBaseline;
+    }
   }
   return out;
 }

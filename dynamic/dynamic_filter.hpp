@@ -37,6 +37,8 @@ enum class LabelReason : std::uint8_t {
   kNoFlow,           // flow lost outside boxes: unknown
   kNoGeometry,       // too few features to fit ego-motion: boxes alone decided
   kForegroundInBox,  // inside a box, at the depth of the detected object itself
+  kDepthChange,      // its depth changed unlike a static point's under the ego-motion
+  kLongBaseline,     // consistent against the previous frame, moved against an older one
 };
 
 const char* to_string(LabelReason r);
@@ -66,6 +68,12 @@ struct DynamicFilterOptions {
   int lk_levels = 3;
   double fb_max_error_px = 1.0;  // forward-backward consistency of LK
   double still_flow_px = 1.0;    // median rotation-compensated flow below: camera still
+  // Depth consistency (with the previous depth image): |measured - predicted depth| / depth^2
+  // above median + k * sigma of the background's, and above this floor (1/m; a structured-
+  // light sensor's noise is about 0.003 z^2), and above depth_min_change_m.
+  double depth_k = 4.0;
+  double depth_floor_per_m = 0.01;
+  double depth_min_change_m = 0.05;
 };
 
 struct DynamicFilterInput {
@@ -80,19 +88,28 @@ struct DynamicFilterInput {
   std::vector<BoxRegion> boxes;  // dynamic-class detections matched to this frame
   Mat3 K = Mat3::Identity();
   std::optional<Mat3> R_cur_prev;  // IMU-predicted camera rotation, prev camera into current
+  // The previous frame's depth image (16-bit, metres = value / depth_scale), optional. With
+  // it, a point whose depth changed otherwise than the ego-motion predicts is dynamic: a
+  // walker coming straight at the camera, or walking just ahead of it, barely moves in the
+  // image but its depth does not follow the camera's motion.
+  const Image* prev_depth = nullptr;
+  double depth_scale = 5000.0;
 };
 
 struct DynamicFilterResult {
   std::vector<FeatureLabel> labels;
   std::vector<LabelReason> reasons;
-  std::vector<float> epipolar_px;  // -1 when unknown
-  std::vector<float> residual_px;  // to the ego-motion homography / rotation; -1 unknown
-  std::vector<int> box_of;         // index of the box holding the feature, -1 none
-  std::vector<bool> box_moving;    // per input box
+  std::vector<float> epipolar_px;    // -1 when unknown
+  std::vector<float> residual_px;    // to the ego-motion homography / rotation; -1 unknown
+  std::vector<float> residual3d_px;  // to the depth + PnP ego-motion prediction; -1 unknown
+  std::vector<float> depth_change;   // |measured - predicted previous depth| / depth^2; -1 unknown
+  std::vector<int> box_of;           // index of the box holding the feature, -1 none
+  std::vector<bool> box_moving;      // per input box
   bool geometry_valid = false;
   bool degenerate_motion = false;     // little translation: homography test where depth is missing
   bool motion_3d = false;             // ego-motion from depth + PnP was used
   double outside_threshold_px = 0.0;  // the adaptive threshold used this frame
+  double depth_threshold = 0.0;       // the adaptive depth-change threshold (1/m); 0 unused
   int tracked = 0;                    // features with valid flow
 
   std::size_t count(FeatureLabel l) const;
@@ -100,5 +117,22 @@ struct DynamicFilterResult {
 
 DynamicFilterResult classify_features(const DynamicFilterInput& in,
                                       const DynamicFilterOptions& opt);
+
+// Multi-frame evidence. A slow mover, or one walking just ahead of the camera, shifts less than
+// the noise between two consecutive frames, but its displacement adds up over several: judged
+// against a frame further back (classify_features with that frame as `prev_gray`, same points)
+// the geometry sees it. `short_baseline` is the result against the previous frame, `long_baseline`
+// against an older one (both for the same current points). A feature the short baseline left
+// static becomes dynamic when the long baseline finds it off the ego-motion by its 3D residual
+// (> long_residual_px) and the short baseline already leans that way (> short_residual_px); both
+// residuals must exist (depth and flow at both baselines), so lost flow over the long baseline
+// or a missing depth never removes a feature.
+struct MultiFrameOptions {
+  double long_residual_px = 4.0;
+  double short_residual_px = 1.0;
+};
+DynamicFilterResult combine_baselines(const DynamicFilterResult& short_baseline,
+                                      const DynamicFilterResult& long_baseline,
+                                      const MultiFrameOptions& opt = {});
 
 }  // namespace kestrel::dynamic
