@@ -13,6 +13,7 @@ struct AreaOptions {
   bool quick = false;
   bool tiny = false;
   std::string shared_data;  // ../shared/data (sim::default_assets_dir())
+  std::string work_dir;     // where rendered scenes go (kept); empty: a temporary folder
 };
 
 // evo's stored KITTI 00 results and the TUM tool's DynaSLAM ATE, recomputed by eval/.
@@ -24,6 +25,9 @@ nlohmann::json bench_imu(const AreaOptions& options);
 nlohmann::json bench_objects(const AreaOptions& options);
 // Telemetry bytes per second per agent on the wire, from a scene's poses and objects.
 nlohmann::json bench_telemetry(const AreaOptions& options);
+// Dynamic-feature removal of the filter alone per detector and mode on cafe, market and
+// uav-zigzag against the mover masks (pipeline/dynamic_evaluation), with the error reasons.
+nlohmann::json bench_dynamic(const AreaOptions& options);
 // H.264 encode ms per frame and bitrate at 640x480 and 1280x720 on rendered frames.
 nlohmann::json bench_video(const AreaOptions& options);
 

@@ -46,8 +46,8 @@ struct BenchFlags {
   std::vector<std::string> only;  // areas to run; empty: all
 };
 
-const std::vector<std::string> kAreas = {"accuracy",  "evaluation", "imu",   "objects",
-                                         "telemetry", "video",      "memory"};
+const std::vector<std::string> kAreas = {"accuracy", "dynamic",   "evaluation", "imu",
+                                         "objects",  "telemetry", "video",      "memory"};
 
 // One way of running the system (a row of the accuracy table).
 struct Mode {
@@ -164,7 +164,7 @@ void run_bench(const BenchFlags& flags) {
   for (const std::string& a : flags.only) {
     if (std::find(kAreas.begin(), kAreas.end(), a) == kAreas.end()) {
       throw kestrel::Error("bench: unknown area '" + a +
-                           "' (--only takes a list of: accuracy, "
+                           "' (--only takes a list of: accuracy, dynamic, "
                            "evaluation, imu, objects, telemetry, video, memory)");
     }
   }
@@ -358,6 +358,8 @@ void run_bench(const BenchFlags& flags) {
   area.quick = flags.quick;
   area.tiny = flags.tiny;
   area.shared_data = kestrel::sim::default_assets_dir();
+  area.work_dir = flags.work_dir;
+  if (want("dynamic")) j["dynamic"] = kestrel::bench::bench_dynamic(area);
   if (want("evaluation")) j["evaluation"] = kestrel::bench::bench_evaluation(area);
   if (want("imu")) j["imu"] = kestrel::bench::bench_imu(area);
   if (want("objects")) j["objects"] = kestrel::bench::bench_objects(area);
@@ -401,8 +403,11 @@ void setup_bench(CLI::App& app) {
   cmd->add_flag("--keep", flags->keep, "keep the rendered scenes in the temporary folder");
   cmd->add_flag("--tiny", flags->tiny, "the smallest inputs (seconds; for tests, not figures)");
   cmd->add_option("--only", flags->only,
-                  "areas to run: accuracy, evaluation, imu, objects, telemetry, video, memory")
+                  "areas to run: accuracy, dynamic, evaluation, imu, objects, telemetry, video, "
+                  "memory")
       ->delimiter(',');
+  // `kestrel bench dynamic` is `kestrel bench --only dynamic`.
+  cmd->add_option("areas", flags->only, "areas to run (as --only)");
   cmd->callback([flags] { run_bench(*flags); });
 }
 

@@ -37,10 +37,11 @@ double number_at(const json& j, const std::string& pointer) {
 TEST(BenchAreas, TinyRunOfEveryAreaWritesFiniteFigures) {
   const fs::path dir = kestrel::test::temp_dir("bench_areas");
   const fs::path out = dir / "bench.json", log = dir / "log.txt";
-  const std::string cmd = (kestrel::test::build_dir() / "kestrel").string() +
-                          " bench --tiny --only evaluation,imu,objects,telemetry,video,memory"
-                          " --json " +
-                          out.string() + " > " + log.string() + " 2>&1";
+  const std::string cmd =
+      (kestrel::test::build_dir() / "kestrel").string() +
+      " bench --tiny --only dynamic,evaluation,imu,objects,telemetry,video,memory"
+      " --json " +
+      out.string() + " > " + log.string() + " 2>&1";
   ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
   std::ifstream in(out);
   const json j = json::parse(in);
@@ -95,10 +96,25 @@ TEST(BenchAreas, TinyRunOfEveryAreaWritesFiniteFigures) {
   }
   EXPECT_GT(number_at(j, "/memory/peak_rss_mib"), 0);
 
+  // Dynamic: every row of issue 5 on the (tiny) cafe, and the unknown-class mover it chose.
+  for (const char* row :
+       {"hybrid+yolo", "hybrid+oracle", "hybrid+oracle-fn20", "hybrid+oracle, unknown-class mover",
+        "detection+yolo", "geometry", "off", "hybrid+yolo, k-5"}) {
+    const std::string p = std::string("/dynamic/cafe/rows/") + row;
+    EXPECT_GE(number_at(j, p + "/dynamic_removed_percent"), 0.0) << row;
+    EXPECT_GT(number_at(j, p + "/dynamic_features"), 0) << row;
+  }
+  EXPECT_EQ(number_at(j, "/dynamic/cafe/rows/off/dynamic_removed_percent"), 0.0);
+  EXPECT_GT(number_at(j, "/dynamic/cafe/unknown_mover/instance"), 0);
+  EXPECT_GT(number_at(j, "/dynamic/cafe/rows/hybrid+oracle/unknown_mover_removed_percent"),
+            number_at(j,
+                      "/dynamic/cafe/rows/hybrid+oracle, unknown-class mover/"
+                      "unknown_mover_removed_percent"));
+
   std::ifstream text(log);
   const std::string printed((std::istreambuf_iterator<char>(text)), {});
-  for (const char* table :
-       {"## Evaluation", "## IMU", "## Objects", "## Telemetry", "## Video", "## Memory"})
+  for (const char* table : {"## Dynamic features", "## Evaluation", "## IMU", "## Objects",
+                            "## Telemetry", "## Video", "## Memory"})
     EXPECT_NE(printed.find(table), std::string::npos) << table;
 }
 

@@ -1,0 +1,156 @@
+#include "pipeline/dynamic_evaluation.hpp"
+
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <filesystem>
+
+#include "core/error.hpp"
+#include "core/so3.hpp"
+#include "detect/dynamic_classes.hpp"
+#include "io/cv_image.hpp"
+#include "io/dataset.hpp"
+#include "io/kestrel_sequence.hpp"
+#include "pipeline/imu_buffer.hpp"
+#include "tracking/feature_extractor.hpp"
+#include "tracking/tracker.hpp"
+
+namespace kestrel::pipeline {
+namespace {
+
+Image gray_of(const Image& color) {
+  if (color.channels == 1) return color;
+  cv::Mat g;
+  cv::cvtColor(io::as_mat(color), g, cv::COLOR_BGR2GRAY);
+  return io::to_image(g);
+}
+
+// As the System computes it: the gyro integrated between the two stamps, in the camera frame.
+std::optional<Mat3> gyro_rotation(const ImuBuffer& imu, Timestamp t0, Timestamp t1,
+                                  const SE3& T_body_camera) {
+  const std::vector<ImuSample> s = imu.between(t0, t1);
+  if (s.size() < 2) return std::nullopt;
+  SO3 R_prev_cur_body;
+  for (std::size_t i = 1; i < s.size(); ++i) {
+    const double dt = static_cast<double>(s[i].t - s[i - 1].t) * 1e-9;
+    R_prev_cur_body = R_prev_cur_body * SO3::exp(0.5 * (s[i].gyro + s[i - 1].gyro) * dt);
+  }
+  const Mat3 R_bc = T_body_camera.rotation();
+  return (R_bc.transpose() * R_prev_cur_body.matrix() * R_bc).transpose();
+}
+
+}  // namespace
+
+DynamicEvalScene load_dynamic_eval_scene(const std::string& dir,
+                                         const std::vector<detect::Detector*>& detectors,
+                                         std::size_t max_frames) {
+  if (!std::filesystem::is_directory(dir + "/dynamic")) {
+    throw Error::at(dir + "/dynamic", 0, "", "no ground-truth mover masks (a Kestrel sequence?)");
+  }
+  auto source = io::open_dataset("kestrel:" + dir);
+  const Calibration& calib = source->calibration();
+  // The tracker's own extractor, built from the options the System gives it.
+  const tracking::FeatureExtractor extractor(calib.camera, tracking::TrackerOptions{}.features);
+  DynamicEvalScene scene;
+  scene.dir = dir;
+  scene.K = calib.camera.K();
+  // All frames and IMU samples first: the gyro rotation of a frame needs the samples after it.
+  std::vector<RgbdFrame> frames;
+  ImuBuffer imu;
+  while (auto m = source->next()) {
+    if (const auto* s = std::get_if<ImuSample>(&*m)) {
+      imu.add(*s);
+    } else if (auto* f = std::get_if<RgbdFrame>(&*m)) {
+      if (max_frames == 0 || frames.size() < max_frames) frames.push_back(std::move(*f));
+    }
+  }
+  scene.frames.reserve(frames.size());
+  for (std::size_t k = 0; k < frames.size(); ++k) {
+    const RgbdFrame& f = frames[k];
+    DynamicEvalFrame e;
+    e.t = f.t;
+    e.gray = gray_of(f.color);
+    e.mask = io::read_dynamic_mask(dir, f.t);
+    e.depth = f.depth;
+    e.depth_scale = f.depth_scale;
+    const tracking::FrameFeatures ff = extractor.extract(f);
+    for (const auto& kp : ff.keypoints) e.points.push_back(kp.px);
+    e.depth_m = ff.sensor_depth;
+    if (k > 0 && calib.has_imu) {
+      e.R_cur_prev = gyro_rotation(imu, frames[k - 1].t, f.t, calib.T_body_camera);
+    }
+    for (detect::Detector* d : detectors) e.detections.push_back(d->detect(f.color, f.t));
+    scene.frames.push_back(std::move(e));
+    frames[k] = RgbdFrame{};  // the colour and depth images are no longer needed
+  }
+  return scene;
+}
+
+DynamicEvalResult evaluate_dynamic_filter(const DynamicEvalScene& scene,
+                                          const DynamicEvalOptions& options) {
+  const detect::DynamicClassList classes = options.dynamic_classes.empty()
+                                               ? detect::DynamicClassList()
+                                               : detect::DynamicClassList(options.dynamic_classes);
+  DynamicEvalResult out;
+  for (std::size_t k = 0; k < scene.frames.size(); ++k) {
+    const DynamicEvalFrame& f = scene.frames[k];
+    dynamic::DynamicFilterInput in;
+    in.cur_gray = &f.gray;
+    in.points = f.points;
+    in.depth_m = f.depth_m;
+    in.K = scene.K;
+    // Frame k against frame k - gap: the older image, its depth, the gyro rotation chained.
+    const auto set_prev = [&](dynamic::DynamicFilterInput& x, int gap) {
+      const std::size_t prev = k - std::min<std::size_t>(k, static_cast<std::size_t>(gap));
+      x.prev_gray = &scene.frames[prev].gray;
+      x.R_cur_prev = f.R_cur_prev;
+      for (std::size_t j = k - 1; j > prev && x.R_cur_prev; --j) {
+        if (!scene.frames[j].R_cur_prev) {
+          x.R_cur_prev.reset();
+          break;
+        }
+        x.R_cur_prev = *x.R_cur_prev * *scene.frames[j].R_cur_prev;
+      }
+      x.prev_depth = nullptr;
+      if (options.prev_depth && !scene.frames[prev].depth.empty()) {
+        x.prev_depth = &scene.frames[prev].depth;
+        x.depth_scale = scene.frames[prev].depth_scale;
+      }
+    };
+    if (options.detector >= 0) {
+      if (static_cast<std::size_t>(options.detector) >= f.detections.size()) {
+        throw Error("evaluate_dynamic_filter: detector index " + std::to_string(options.detector) +
+                    " out of range (" + std::to_string(f.detections.size()) + " loaded)");
+      }
+      for (const auto& d : f.detections[static_cast<std::size_t>(options.detector)].boxes) {
+        if (classes.is_dynamic_class(d.label))
+          in.boxes.push_back({d.x_min, d.y_min, d.x_max, d.y_max});
+      }
+    }
+    dynamic::DynamicFilterResult r;
+    if (k == 0 || options.filter.mode == dynamic::FilterMode::kOff) {
+      // The System keeps every feature of its first frame (nothing to compare with) and with
+      // the filter off.
+      r.labels.assign(in.points.size(), dynamic::FeatureLabel::kStatic);
+      r.reasons.assign(in.points.size(), dynamic::LabelReason::kStaticGeometry);
+    } else {
+      const auto t0 = std::chrono::steady_clock::now();
+      set_prev(in, std::max(options.gap, 1));
+      r = dynamic::classify_features(in, options.filter);
+      if (options.long_gap > 1 && k > 1) {
+        dynamic::DynamicFilterInput far = in;
+        set_prev(far, options.long_gap);
+        r = dynamic::combine_baselines(r, dynamic::classify_features(far, options.filter),
+                                       options.multi_frame);
+      }
+      out.filter_ms.push_back(
+          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+    }
+    out.counts += dynamic::count_removal(in.points, r.labels, f.mask, &r.reasons);
+    if (options.on_frame) options.on_frame(f, in, r);
+  }
+  return out;
+}
+
+}  // namespace kestrel::pipeline
