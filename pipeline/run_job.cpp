@@ -43,7 +43,7 @@ class RunObserver : public Observer {
     progress_.update(++done_, tracking::to_string(r.state));
     std::lock_guard lock(mutex_);
     rows_.push_back({r.t, r.state, r.features, r.dynamic_features, r.inliers, r.detections,
-                     r.keyframe, r.latency_ms});
+                     r.keyframe, r.latency_ms, r.source, r.imu_chi2});
     for (KeptFrame& k : strip_) {
       if (!k.frame.color.empty() && k.frame.t == r.t) k.report = r;
     }
@@ -52,12 +52,12 @@ class RunObserver : public Observer {
   void write_frames_csv(const std::string& path) {
     std::lock_guard lock(mutex_);
     std::ofstream out(path);
-    out << "#t [s],state,features,dynamic,inliers,detections,keyframe,latency [ms]\n";
-    char line[160];
+    out << "#t [s],state,features,dynamic,inliers,detections,keyframe,latency [ms],pose,imu chi2\n";
+    char line[200];
     for (const Row& r : rows_) {
-      std::snprintf(line, sizeof(line), "%.9f,%s,%d,%d,%d,%d,%d,%.2f\n", to_seconds(r.t),
+      std::snprintf(line, sizeof(line), "%.9f,%s,%d,%d,%d,%d,%d,%.2f,%s,%.3g\n", to_seconds(r.t),
                     tracking::to_string(r.state), r.features, r.dynamic, r.inliers, r.detections,
-                    r.keyframe ? 1 : 0, r.latency_ms);
+                    r.keyframe ? 1 : 0, r.latency_ms, to_string(r.source), r.imu_chi2);
       out << line;
     }
     if (!out) throw Error::at(path, 0, "", "write error");
@@ -70,6 +70,8 @@ class RunObserver : public Observer {
     int features, dynamic, inliers, detections;
     bool keyframe;
     double latency_ms;
+    PoseSource source;
+    double imu_chi2;
   };
   ProgressBar& progress_;
   std::vector<KeptFrame>& strip_;

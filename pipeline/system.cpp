@@ -84,6 +84,22 @@ std::optional<Mat3> gyro_rotation(const ImuBuffer& imu, Timestamp t0, Timestamp 
 
 }  // namespace
 
+const char* to_string(PoseSource s) {
+  switch (s) {
+    case PoseSource::kNone:
+      return "none";
+    case PoseSource::kVision:
+      return "vision";
+    case PoseSource::kVisionImu:
+      return "vision-imu";
+    case PoseSource::kBridged:
+      return "bridged";
+    case PoseSource::kImu:
+      return "imu";
+  }
+  return "?";
+}
+
 struct System::Impl {
   Calibration calib;
   SystemOptions options;
@@ -137,7 +153,8 @@ struct System::Impl {
   imu::InertialPredictor predictor;
   Timestamp imu_fed_until = 0;  // predictor has the IMU up to here
   std::size_t inertial_frames = 0;
-  std::size_t bridged = 0;  // lost tracks restarted at the IMU's pose
+  std::size_t bridged = 0;          // lost tracks restarted at the IMU's pose
+  std::size_t prior_conflicts = 0;  // frames whose vision disagreed with the IMU
 
   Impl(const Calibration& c, SystemOptions o, std::unique_ptr<detect::Detector> d)
       : calib(c),
@@ -201,7 +218,7 @@ struct System::Impl {
   }
 
   // Hands the IMU up to frame t to the predictor and returns its guess of the camera pose.
-  std::optional<SE3> inertial_prediction(Timestamp t) {
+  std::optional<tracking::MotionPrior> inertial_prediction(Timestamp t) {
     if (!inertial) return std::nullopt;
     std::vector<ImuSample> s;
     {
@@ -217,7 +234,15 @@ struct System::Impl {
     if (tracker.state() == tracking::TrackingState::kInitializing) return std::nullopt;
     const auto p = predictor.predict(t);
     if (!p) return std::nullopt;
-    return p->T_w_b * calib.T_body_camera;
+    // The gyro is good to a few hundredths of a degree per frame; what the prior must allow
+    // for is the previous fix's own error and, in translation, the velocity's, both growing
+    // with the time the IMU carries the pose alone.
+    const double h = p->since_fix_s;
+    tracking::MotionPrior prior;
+    prior.T_w_c = p->T_w_b * calib.T_body_camera;
+    prior.rotation_sigma = options.inertial_prior_rotation_sigma * (1.0 + h / 0.1);
+    prior.translation_sigma = options.inertial_prior_translation_sigma + 0.05 * h + 0.5 * h * h;
+    return prior;
   }
 
   void process(QueuedFrame& q) {
@@ -307,9 +332,13 @@ struct System::Impl {
     for (std::size_t i = 0; i < keep.size(); ++i) report.feature_dynamic[i] = keep[i] ? 0 : 1;
 
     if (!world_initialized) initialize_world(frame.t);
-    const std::optional<SE3> predicted = inertial_prediction(frame.t);
+    const std::optional<tracking::MotionPrior> prior = inertial_prediction(frame.t);
+    std::optional<SE3> predicted;
+    if (prior) predicted = prior->T_w_c;
     t0 = Clock::now();
-    const tracking::TrackResult tr = tracker.track(std::move(features), predicted, &keep);
+    const tracking::TrackResult tr = prior && options.inertial_prior
+                                         ? tracker.track(std::move(features), *prior, &keep)
+                                         : tracker.track(std::move(features), predicted, &keep);
     stats.record("tracking", ms_since(t0));
     if (inertial) {
       const SE3 T_w_b = tr.T_w_c * calib.T_body_camera.inverse();
@@ -328,10 +357,18 @@ struct System::Impl {
     report.inliers = tr.inliers;
     report.keyframe = tr.new_keyframe;
     report.T_w_body = tr.T_w_c * calib.T_body_camera.inverse();
+    if (prior) report.imu_chi2 = tr.prior_chi2;
+    if (tr.state == tracking::TrackingState::kOk ||
+        tr.state == tracking::TrackingState::kRelocalized) {
+      report.source = tr.bridged          ? PoseSource::kBridged
+                      : tr.prior_conflict ? PoseSource::kVisionImu
+                                          : PoseSource::kVision;
+    }
     if (tr.state == tracking::TrackingState::kLost && predicted) {
       // Lost, but the IMU still knows where the body is (for max_gap_s).
       report.T_w_body = *predicted * calib.T_body_camera.inverse();
       report.inertial_only = true;
+      report.source = PoseSource::kImu;
     }
     report.latency_ms = ms_since(q.arrival);
     stats.record("frame_latency", report.latency_ms);
@@ -340,6 +377,7 @@ struct System::Impl {
       if (tr.state == tracking::TrackingState::kLost) ++lost;
       if (report.inertial_only) ++inertial_frames;
       if (tr.bridged) ++bridged;
+      if (tr.prior_conflict) ++prior_conflicts;
       if (tr.state != tracking::TrackingState::kLost || report.inertial_only) {
         trajectory.push_back(to_seconds(frame.t), report.T_w_body);
       }
@@ -586,6 +624,7 @@ void System::finish() {
   impl_->stats.set_counter("frames.lost", frames_lost());
   impl_->stats.set_counter("frames.inertial_only", impl_->inertial_frames);
   impl_->stats.set_counter("tracking.bridged", impl_->bridged);
+  impl_->stats.set_counter("tracking.imu_conflicts", impl_->prior_conflicts);
 }
 
 void System::write_map_outputs(const std::string& dir) const {

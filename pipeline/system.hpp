@@ -46,9 +46,29 @@ struct SystemOptions {
   // the pose through a lost track (when the calibration has an IMU). Off: visual only.
   bool use_imu = true;
   imu::InertialPredictorOptions inertial;  // noise is taken from the calibration
+  // The IMU's prediction also weighs in each frame's pose optimization (a PosePrior with
+  // these sigmas one frame after a fix), and vision that disagrees with it is re-matched
+  // around it (TrackerOptions::prior_gate_chi2). Off by default because it cost accuracy:
+  // office-static (24 s) 1.28 -> 1.97 cm, and with the sigmas loosened to 2 cm / 5 mrad
+  // uav-zigzag (no movers) 0.24 -> 0.44 m; with the gate the drone lost track for seconds.
+  // The prediction inherits the fixes' errors through the velocity fit, so vision and IMU
+  // are not independent here; that needs a sliding-window visual-inertial estimate.
+  bool inertial_prior = false;
+  double inertial_prior_rotation_sigma = 0.001;     // radians
+  double inertial_prior_translation_sigma = 0.005;  // metres
   // Live (not sequential) runs wait at most this long for the IMU to pass a frame's stamp.
   double imu_wait_ms = 20.0;
 };
+
+// Where a frame's pose came from.
+enum class PoseSource {
+  kNone,       // not tracked yet (initializing) or lost without an IMU: the last good pose
+  kVision,     // tracked against the map
+  kVisionImu,  // tracked, after vision first disagreed with the IMU and was re-matched
+  kBridged,    // lost, restarted the local map at the IMU's pose
+  kImu,        // lost, the IMU's dead reckoning
+};
+const char* to_string(PoseSource s);
 
 // What observers get for every frame (DSO's Output3DWrapper seam: writers, telemetry, report).
 struct FrameReport {
@@ -56,6 +76,8 @@ struct FrameReport {
   SE3 T_w_body;
   tracking::TrackingState state = tracking::TrackingState::kInitializing;
   bool inertial_only = false;  // lost, and T_w_body is the IMU's dead reckoning
+  PoseSource source = PoseSource::kNone;
+  double imu_chi2 = -1.0;  // vision's disagreement with the IMU's prediction; -1: none made
   int features = 0;
   int dynamic_features = 0;
   int inliers = 0;

@@ -23,7 +23,7 @@ bool pose_residual(const PinholeCamera& camera, const SE3& T_c_w, const Vec3& p_
 
 PoseOptimizerResult optimize_pose(const PinholeCamera& camera,
                                   const std::vector<PoseObservation>& obs, const SE3& T_c_w_initial,
-                                  const PoseOptimizerOptions& options) {
+                                  const PoseOptimizerOptions& options, const PosePrior* prior) {
   PoseOptimizerResult res;
   res.T_c_w = T_c_w_initial;
   res.inlier.assign(obs.size(), 1);
@@ -48,6 +48,14 @@ PoseOptimizerResult optimize_pose(const PinholeCamera& camera,
         H.noalias() += w * J.transpose() * J;
         b.noalias() += w * J.transpose() * r;
         ++used;
+      }
+      if (prior) {
+        // d log(exp(δ) T T_p⁻¹) / dδ is the identity to first order near the prior.
+        const Vec6 e = (T * prior->T_c_w.inverse()).log();
+        if (e.allFinite()) {
+          H.noalias() += prior->information;
+          b.noalias() += prior->information * e;
+        }
       }
       if (used < 3) break;
       const Vec6 delta = H.ldlt().solve(-b);

@@ -26,6 +26,15 @@ struct PoseOptimizerOptions {
   int min_inliers = 10;
 };
 
+// A prior on the pose from outside vision (the IMU's prediction): residual log(T T_prior⁻¹)
+// in the same left-perturbation tangent space, weighted by `information` ([rho; phi] order).
+// With many good points the points decide; with few or bad ones (a dark corridor, a close
+// wall) the prior keeps the pose where the IMU says it is.
+struct PosePrior {
+  SE3 T_c_w;
+  Mat6 information = Mat6::Zero();
+};
+
 struct PoseOptimizerResult {
   SE3 T_c_w;
   std::vector<std::uint8_t> inlier;  // per observation
@@ -42,6 +51,7 @@ bool pose_residual(const PinholeCamera& camera, const SE3& T_c_w, const Vec3& p_
 PoseOptimizerResult optimize_pose(const PinholeCamera& camera,
                                   const std::vector<PoseObservation>& observations,
                                   const SE3& T_c_w_initial,
-                                  const PoseOptimizerOptions& options = {});
+                                  const PoseOptimizerOptions& options = {},
+                                  const PosePrior* prior = nullptr);
 
 }  // namespace kestrel::tracking

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -69,6 +70,20 @@ TrackResult Tracker::track(const RgbdFrame& frame, const std::optional<SE3>& pre
   TrackResult r = track(std::move(f), predicted_T_w_c, keep);
   r.times.extract_ms = extract_ms;
   r.times.total_ms += extract_ms;
+  return r;
+}
+
+TrackResult Tracker::track(FrameFeatures f, const MotionPrior& prior,
+                           const std::vector<std::uint8_t>* keep) {
+  const double sr = prior.rotation_sigma, st = prior.translation_sigma;
+  if (prior.T_w_c.is_finite() && sr > 0.0 && st > 0.0 && std::isfinite(sr) && std::isfinite(st)) {
+    PosePrior p;
+    p.T_c_w = prior.T_w_c.inverse();
+    p.information.diagonal() << Vec3::Constant(1.0 / (st * st)), Vec3::Constant(1.0 / (sr * sr));
+    prior_ = p;
+  }
+  TrackResult r = track(std::move(f), std::optional<SE3>(prior.T_w_c), keep);
+  prior_.reset();
   return r;
 }
 
@@ -167,6 +182,33 @@ TrackResult Tracker::track(FrameFeatures f, const std::optional<SE3>& predicted,
     if (pose2.ok && pose2.inliers >= pose.inliers) {
       pose = pose2;
       m = std::move(m2);
+    }
+  }
+  if (pose.ok && prior_ && options_.prior_gate_chi2 > 0.0) {
+    auto disagreement = [&](const SE3& T_c_w) {
+      const Vec6 e = (T_c_w * prior_->T_c_w.inverse()).log();
+      return e.allFinite() ? double(e.transpose() * prior_->information * e)
+                           : std::numeric_limits<double>::infinity();
+    };
+    res.prior_chi2 = disagreement(pose.T_c_w);
+    if (res.prior_chi2 > options_.prior_gate_chi2) {
+      // Vision and the IMU disagree: a mover filling the view drags the pose along with it
+      // (one walking along the optical axis even passes the epipolar test). The points that
+      // project where the IMU says they should are the static ones; they decide, or nothing.
+      res.prior_conflict = true;
+      std::vector<PointId> visible_p;
+      Matched mp = search_local_map(f, prior_->T_c_w, pts, options_.refine_radius_px, &visible_p);
+      const auto to = Clock::now();
+      PoseOptimizerResult pp = optimize(f, mp, prior_->T_c_w);
+      optimize_ms += ms_since(to);
+      if (pp.ok && disagreement(pp.T_c_w) <= options_.prior_gate_chi2) {
+        pose = pp;
+        m = std::move(mp);
+        visible = std::move(visible_p);
+        res.prior_chi2 = disagreement(pp.T_c_w);
+      } else {
+        pose.ok = false;
+      }
     }
   }
   res.times.optimize_ms = optimize_ms;
@@ -442,7 +484,8 @@ PoseOptimizerResult Tracker::optimize(const FrameFeatures& f, Matched& m, const 
     obs.push_back({p->p_w, f.keypoints[i].un, 1.0 / f.level_sigma2(f.keypoints[i].level)});
     feature_of.push_back(i);
   }
-  PoseOptimizerResult r = optimize_pose(camera_, obs, T_c_w, options_.pose);
+  PoseOptimizerResult r =
+      optimize_pose(camera_, obs, T_c_w, options_.pose, prior_ ? &*prior_ : nullptr);
   m.count = 0;
   for (std::size_t k = 0; k < obs.size(); ++k) {
     if (!r.inlier[k]) {

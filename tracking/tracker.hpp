@@ -49,6 +49,10 @@ struct TrackerOptions {
   // unmapped space or a close obstacle that hid the map should not end the track, and the IMU
   // has only drifted for that long. The old map stays; loop closing joins the two. 0: never.
   int bridge_after_lost_frames = 6;
+  // With a MotionPrior: a pose further from it than this (chi-square of the 6-dof prior
+  // residual; 16.8 is 99%) is vision disagreeing with the IMU, and the points that agree with
+  // the IMU's pose are tried instead. 0: no gate.
+  double prior_gate_chi2 = 16.8;
   // Keyframe decision (ORB-SLAM, RGB-D variant).
   double keyframe_ratio = 0.75;  // tracked / reference keyframe's tracked points
   int max_frames_between_keyframes = 30;
@@ -60,6 +64,14 @@ struct TrackerOptions {
   bool local_ba = true;
   mapping::LocalBaOptions ba;
   mapping::CullingOptions culling;
+};
+
+// A pose predicted from outside vision with its uncertainty (the IMU's prediction): the
+// search starts there and pose optimization weighs it against the points.
+struct MotionPrior {
+  SE3 T_w_c;
+  double rotation_sigma = 0.0;     // radians, per axis
+  double translation_sigma = 0.0;  // metres, per axis
 };
 
 struct StageTimes {
@@ -77,6 +89,8 @@ struct TrackResult {
   int matches = 0;
   bool new_keyframe = false;
   bool bridged = false;                  // lost, restarted at the predicted pose (TrackerOptions)
+  bool prior_conflict = false;           // vision disagreed with the MotionPrior (prior_gate_chi2)
+  double prior_chi2 = 0.0;               // the final pose's disagreement with the MotionPrior
   mapping::KeyframeId keyframe_id = -1;  // the new keyframe, when there is one
   StageTimes times;
 };
@@ -93,6 +107,9 @@ class Tracker {
                     const std::vector<std::uint8_t>* keep = nullptr);
   // Tracks features extracted by extractor() (so that a dynamic filter can see them first).
   TrackResult track(FrameFeatures features, const std::optional<SE3>& predicted_T_w_c = {},
+                    const std::vector<std::uint8_t>* keep = nullptr);
+  // Same, with a prediction that also weighs in the pose optimization.
+  TrackResult track(FrameFeatures features, const MotionPrior& prior,
                     const std::vector<std::uint8_t>* keep = nullptr);
 
   const FeatureExtractor& extractor() const { return extractor_; }
@@ -127,6 +144,7 @@ class Tracker {
 
   PinholeCamera camera_;
   TrackerOptions options_;
+  std::optional<PosePrior> prior_;  // during track(features, prior, keep) only
   FeatureExtractor extractor_;
   mapping::Map map_;
   TrackingState state_ = TrackingState::kInitializing;

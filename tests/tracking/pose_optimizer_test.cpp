@@ -117,6 +117,57 @@ TEST(PoseOptimizer, ConvergesFromAPerturbedPrior) {
   EXPECT_LT(rotation_error_deg(r.T_c_w, T_c_w), 0.1);
 }
 
+PosePrior prior_at(const SE3& T_c_w, double sigma_t, double sigma_r) {
+  PosePrior p;
+  p.T_c_w = T_c_w;
+  p.information.diagonal() << Vec3::Constant(1.0 / (sigma_t * sigma_t)),
+      Vec3::Constant(1.0 / (sigma_r * sigma_r));
+  return p;
+}
+
+TEST(PoseOptimizer, PriorHoldsThePoseThatFewPointsCannot) {
+  // Twelve points on one far plane leave translation along the view and rotation nearly
+  // interchangeable; a prior from the IMU fixes what they cannot.
+  const PinholeCamera cam = camera();
+  const SE3 T_c_w(SO3::exp(Vec3(0.02, -0.05, 0.01)), Vec3(0.1, 0.0, -0.2));
+  std::mt19937 rng(3);
+  std::normal_distribution<double> n(0.0, 1.0);
+  std::vector<PoseObservation> obs;
+  for (int i = 0; i < 12; ++i) {
+    const Vec2 px(280 + 8 * i, 230 + (i % 3) * 10);
+    const Vec3 p_w = T_c_w.inverse() * (cam.unproject(px) * 12.0);
+    obs.push_back({p_w, px + Vec2(n(rng), n(rng)), 1.0});
+  }
+  Vec6 d;
+  d << 0.004, -0.003, 0.003, 0.0005, 0.0005, -0.0005;  // what the IMU is off by
+  const PosePrior prior = prior_at(SE3::exp(d) * T_c_w, 0.01, 0.002);
+  PoseOptimizerOptions o;
+  o.min_inliers = 6;
+  const PoseOptimizerResult with = optimize_pose(cam, obs, prior.T_c_w, o, &prior);
+  ASSERT_TRUE(with.ok);
+  EXPECT_LT(translation_error(with.T_c_w, T_c_w), 0.01);
+  EXPECT_LT(rotation_error_deg(with.T_c_w, T_c_w), 0.1);
+  const PoseOptimizerResult without = optimize_pose(cam, obs, prior.T_c_w, o);
+  const double e_without = without.ok ? translation_error(without.T_c_w, T_c_w) : 1e9;
+  EXPECT_GT(e_without, 2.0 * translation_error(with.T_c_w, T_c_w))
+      << "the points alone should not pin the pose: " << e_without << " m";
+}
+
+TEST(PoseOptimizer, ManyGoodPointsOutweighAWrongPrior) {
+  const PinholeCamera cam = camera();
+  const SE3 T_c_w(SO3::exp(Vec3(-0.05, 0.1, 0.02)), Vec3(-0.3, 0.1, 0.2));
+  const Scene s = make_scene(cam, T_c_w, 300, 1.0, 0.0, 9);
+  std::vector<PoseObservation> obs;
+  for (std::size_t i = 0; i < s.points_w.size(); ++i) obs.push_back({s.points_w[i], s.uv[i], 1.0});
+  Vec6 d;
+  d << 0.03, 0.0, -0.02, 0.0, 0.01, 0.0;  // 3.6 cm, 0.6 degrees: a drifting IMU
+  const PosePrior prior = prior_at(SE3::exp(d) * T_c_w, 0.005, 0.001);
+  const PoseOptimizerResult r = optimize_pose(cam, obs, prior.T_c_w, {}, &prior);
+  ASSERT_TRUE(r.ok);
+  EXPECT_LT(translation_error(r.T_c_w, T_c_w), 3e-3);
+  EXPECT_LT(rotation_error_deg(r.T_c_w, T_c_w), 0.05);
+}
+
 TEST(PoseOptimizer, TooFewObservationsIsNotOkAndKeepsTheInitialPose) {
   const PinholeCamera cam = camera();
   const SE3 T;
