@@ -55,6 +55,7 @@ struct Mode {
   std::string detector;  // yolo | oracle | none
   FilterMode dynamic;
   double false_negative_rate = 0.0;
+  std::string sensor = "auto";  // RunOptions::mode: auto is RGB-D + IMU on Kestrel scenes
 };
 
 const std::vector<Mode>& all_modes() {
@@ -65,6 +66,9 @@ const std::vector<Mode>& all_modes() {
       {"detection+yolo", "yolo", FilterMode::kDetectionOnly},
       {"geometry", "none", FilterMode::kGeometryOnly},
       {"off", "none", FilterMode::kOff},
+      // The same without the IMU: what the inertial prediction, dead reckoning and bridging
+      // are worth.
+      {"off-visual", "none", FilterMode::kOff, 0.0, "rgbd"},
   };
   return modes;
 }
@@ -95,7 +99,7 @@ std::string scene_name(const Scene& s) { return s.scenario + (s.movers ? "" : " 
 std::vector<Scene> plan(bool quick) {
   std::vector<std::string> every;
   for (const Mode& m : all_modes()) every.push_back(m.name);
-  const std::vector<std::string> static_modes = {"hybrid+yolo", "geometry", "off"};
+  const std::vector<std::string> static_modes = {"hybrid+yolo", "geometry", "off", "off-visual"};
   if (quick) {
     return {{"cafe", true, 5.0, every},
             {"market", true, 4.0, every},
@@ -216,6 +220,7 @@ void run_bench(const BenchFlags& flags) {
       opt.dataset_dir = sr.dir;
       opt.detector = mode.detector;
       opt.dynamic = mode.dynamic;
+      opt.mode = mode.sensor;
       opt.oracle.false_negative_rate = mode.false_negative_rate;
       opt.progress = false;
       opt.strip_frames = 0;
@@ -345,6 +350,7 @@ void run_bench(const BenchFlags& flags) {
     run["mode"] = r.mode.name;
     run["detector"] = r.mode.detector;
     run["dynamic"] = kestrel::dynamic::to_string(r.mode.dynamic);
+    run["sensor"] = r.mode.sensor;
     run["oracle_false_negative_rate"] = r.mode.false_negative_rate;
     for (const auto& [stage, l] : r.summary.stages) {
       run["stages"][stage] = {{"count", l.count}, {"p50_ms", l.p50_ms}, {"p90_ms", l.p90_ms}};
