@@ -148,6 +148,8 @@ struct System::Impl {
   // Tracking-thread state.
   bool world_initialized = false;
   Image prev_gray;
+  Image prev_depth;  // for the filter's depth-change test (a mover walking at the camera)
+  double prev_depth_scale = 5000.0;
   Timestamp prev_t = 0;
   bool inertial = false;  // IMU used for prediction
   imu::InertialPredictor predictor;
@@ -298,6 +300,8 @@ struct System::Impl {
       for (const auto& kp : features.keypoints) in.points.push_back(kp.px);
       in.boxes = boxes;
       in.depth_m = features.sensor_depth;
+      in.prev_depth = prev_depth.empty() ? nullptr : &prev_depth;
+      in.depth_scale = prev_depth_scale;
       in.K = calib.camera.K();
       {
         std::lock_guard<std::mutex> lock(imu_mutex);
@@ -324,6 +328,8 @@ struct System::Impl {
       imu.drop_before(frame.t - kSecond);
     }
     prev_gray = gray;
+    prev_depth = frame.depth;  // shared pixels, not a copy
+    prev_depth_scale = frame.depth_scale;
     prev_t = frame.t;
 
     report.feature_px.reserve(features.size());

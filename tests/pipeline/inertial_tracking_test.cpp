@@ -1,0 +1,139 @@
+// RGB-D + IMU through a blackout: a rendered office with a stretch of black frames (a lens
+// cap, a light failure). With the IMU the System carries the pose through and picks the track
+// up again; without it those frames are lost.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <variant>
+
+#include "io/dataset.hpp"
+#include "pipeline/system.hpp"
+#include "sim/scenario.hpp"
+#include "sim/sequence_recorder.hpp"
+#include "sim/simulator.hpp"
+#include "tests/test_paths.hpp"
+
+namespace kestrel::pipeline {
+namespace {
+
+constexpr double kBlackFrom = 1.2;  // seconds
+constexpr double kBlackTo = 1.6;
+
+const std::string& office_dir() {
+  static const std::string dir = [] {
+    const std::string d = (test::temp_dir("inertial_tracking") / "office").string();
+    sim::ScenarioOverrides over;
+    over.duration = 2.5;
+    sim::Simulator sim(sim::load_scenario("office-static", over));
+    sim::record_sequence(sim, d);
+    return d;
+  }();
+  return dir;
+}
+
+bool blacked_out(Timestamp t) {
+  const double s = to_seconds(t);
+  return s >= kBlackFrom && s < kBlackTo;
+}
+
+struct BlackoutRun {
+  Trajectory trajectory;
+  Trajectory truth;
+  std::map<std::string, std::size_t> counters;
+  std::size_t lost = 0;
+  std::vector<FrameReport> reports;
+};
+
+class Recorder : public Observer {
+ public:
+  void on_frame(const FrameReport& r) override { reports.push_back(r); }
+  std::vector<FrameReport> reports;
+};
+
+BlackoutRun run_blackout(bool use_imu) {
+  auto source = io::open_dataset("kestrel:" + office_dir());
+  BlackoutRun out;
+  out.truth = *source->ground_truth();
+  SystemOptions opt;
+  opt.sequential = true;
+  opt.dynamic.mode = dynamic::FilterMode::kOff;
+  opt.use_imu = use_imu;
+  opt.vocabulary.clear();  // odometry only: no loop correction afterwards
+  const Trajectory truth = out.truth;
+  opt.initial_T_w_body = [truth](Timestamp t) -> std::optional<SE3> {
+    for (std::size_t i = 0; i < truth.size(); ++i) {
+      if (std::fabs(truth.stamps[i] - to_seconds(t)) < 0.005) return truth.poses[i];
+    }
+    return std::nullopt;
+  };
+  System system(source->calibration(), opt, nullptr);
+  Recorder rec;
+  system.add_observer(&rec);
+  while (auto m = source->next()) {
+    if (auto* f = std::get_if<RgbdFrame>(&*m); f && blacked_out(f->t)) {
+      f->color = Image::allocate(f->color.width, f->color.height, f->color.channels, f->color.type);
+      f->depth = Image::allocate(f->depth.width, f->depth.height, 1, PixelType::kU16);
+    }
+    system.feed(*m);
+  }
+  system.finish();
+  out.trajectory = system.trajectory();
+  out.counters = system.stats().counters();
+  out.lost = system.frames_lost();
+  out.reports = std::move(rec.reports);
+  return out;
+}
+
+double position_error(const BlackoutRun& r, std::size_t i) {
+  for (std::size_t k = 0; k < r.truth.size(); ++k) {
+    if (std::fabs(r.truth.stamps[k] - r.trajectory.stamps[i]) < 0.005) {
+      return (r.truth.poses[k].translation() - r.trajectory.poses[i].translation()).norm();
+    }
+  }
+  return std::numeric_limits<double>::infinity();
+}
+
+TEST(InertialTracking, ImuCarriesThePoseThroughABlackoutAndTheTrackResumes) {
+  const BlackoutRun r = run_blackout(true);
+  ASSERT_EQ(r.reports.size(), 76u);
+  std::size_t black = 0, carried = 0;
+  double worst = 0.0;
+  for (const FrameReport& f : r.reports) {
+    if (!blacked_out(f.t)) continue;
+    ++black;
+    EXPECT_EQ(f.state, tracking::TrackingState::kLost) << to_seconds(f.t);
+    if (f.source == PoseSource::kImu) ++carried;
+  }
+  EXPECT_EQ(black, 12u);
+  EXPECT_EQ(carried, black) << "every black frame gets the IMU's pose";
+  EXPECT_EQ(r.counters.at("frames.inertial_only"), black);
+  // Every frame is in the trajectory, and the carried ones stay close to the truth.
+  EXPECT_EQ(r.trajectory.size(), r.reports.size());
+  for (std::size_t i = 0; i < r.trajectory.size(); ++i) {
+    const double e = position_error(r, i);
+    if (r.trajectory.stamps[i] >= kBlackFrom) worst = std::max(worst, e);
+  }
+  EXPECT_LT(worst, 0.05) << "worst position error from the blackout on: " << worst << " m";
+  // After the blackout the camera finds the map again: the last frames are tracked.
+  const FrameReport& last = r.reports.back();
+  EXPECT_NE(last.state, tracking::TrackingState::kLost);
+  EXPECT_EQ(last.source, PoseSource::kVision);
+  std::cout << "blackout with IMU: " << black << " frames carried, worst error " << worst * 100
+            << " cm, " << r.lost << " lost in all\n";
+}
+
+TEST(InertialTracking, WithoutTheImuTheBlackoutIsLost) {
+  const BlackoutRun r = run_blackout(false);
+  ASSERT_EQ(r.reports.size(), 76u);
+  EXPECT_GE(r.lost, 12u);
+  EXPECT_EQ(r.counters.at("frames.inertial_only"), 0u);
+  EXPECT_LE(r.trajectory.size() + 12, r.reports.size());
+  for (const FrameReport& f : r.reports) {
+    if (blacked_out(f.t)) EXPECT_EQ(f.source, PoseSource::kNone);
+  }
+}
+
+}  // namespace
+}  // namespace kestrel::pipeline
