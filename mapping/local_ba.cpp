@@ -139,18 +139,11 @@ class DisparityCost final : public ceres::SizedCostFunction<1, 6, 3> {
   double bf_, measured_, sqrt_info_;
 };
 
-struct Obs {
-  KeyframeId kf;
-  PointId point;
-  int feature;
-};
-
 }  // namespace
 
-LocalBaResult local_bundle_adjustment(Map& map, KeyframeId current, const PinholeCamera& camera,
-                                      const LocalBaOptions& options) {
-  LocalBaResult res;
-  if (!map.keyframe(current)) return res;
+std::optional<LocalBaProblem> gather_local_ba(const Map& map, KeyframeId current,
+                                              const LocalBaOptions& options) {
+  if (!map.keyframe(current)) return std::nullopt;
   std::set<KeyframeId> local{current};
   for (KeyframeId k : map.covisible(current, options.window)) local.insert(k);
   std::set<PointId> points;
@@ -159,12 +152,21 @@ LocalBaResult local_bundle_adjustment(Map& map, KeyframeId current, const Pinhol
       if (p != kNoPoint && map.point(p)) points.insert(p);
     }
   }
+  LocalBaProblem pb;
+  pb.current = current;
   std::set<KeyframeId> fixed;
-  std::vector<Obs> obs;
   for (PointId pid : points) {
-    for (const auto& [kid, feature] : map.point(pid)->observations) {
+    const auto* mp = map.point(pid);
+    pb.points[pid] = mp->p_w;
+    for (const auto& [kid, feature] : mp->observations) {
+      const Keyframe* kf = map.keyframe(kid);
+      if (!kf) continue;
       if (!local.count(kid)) fixed.insert(kid);
-      obs.push_back({kid, pid, feature});
+      const auto& f = kf->features;
+      const auto fi = static_cast<std::size_t>(feature);
+      const auto& kp = f.keypoints[fi];
+      pb.observations.push_back({kid, pid, kp.un, 1.0 / f.level_scale(kp.level),
+                                 f.level_sigma2(kp.level), f.has_depth(fi) ? f.depth[fi] : 0.0});
     }
   }
   // The first keyframe defines the world frame; without any anchor the gauge would be free.
@@ -176,13 +178,21 @@ LocalBaResult local_bundle_adjustment(Map& map, KeyframeId current, const Pinhol
     fixed.insert(*local.begin());
     local.erase(local.begin());
   }
-  if (local.empty() || obs.empty()) return res;
+  if (local.empty() || pb.observations.empty()) return std::nullopt;
+  for (KeyframeId k : local) pb.T_c_w[k] = map.keyframe(k)->T_c_w();
+  for (KeyframeId k : fixed) pb.T_c_w[k] = map.keyframe(k)->T_c_w();
+  pb.fixed = std::move(fixed);
+  return pb;
+}
 
+LocalBaSolution solve_local_ba(const LocalBaProblem& pb, const PinholeCamera& camera,
+                               const LocalBaOptions& options) {
+  LocalBaSolution sol;
+  sol.current = pb.current;
+  const auto& obs = pb.observations;
   std::map<KeyframeId, Vec6> poses;
-  for (KeyframeId k : local) poses[k] = map.keyframe(k)->T_c_w().log();
-  for (KeyframeId k : fixed) poses[k] = map.keyframe(k)->T_c_w().log();
-  std::map<PointId, Vec3> pts;
-  for (PointId p : points) pts[p] = map.point(p)->p_w;
+  for (const auto& [k, T] : pb.T_c_w) poses[k] = T.log();
+  std::map<PointId, Vec3> pts = pb.points;
 
   std::vector<std::uint8_t> active(obs.size(), 1);
   auto rms = [&]() {
@@ -190,18 +200,16 @@ LocalBaResult local_bundle_adjustment(Map& map, KeyframeId current, const Pinhol
     int n = 0;
     for (std::size_t i = 0; i < obs.size(); ++i) {
       if (!active[i]) continue;
-      const auto& f = map.keyframe(obs[i].kf)->features;
       Vec2 r;
-      if (reprojection_jacobians(camera, SE3::exp(poses[obs[i].kf]), pts[obs[i].point],
-                                 f.keypoints[static_cast<std::size_t>(obs[i].feature)].un, &r,
-                                 nullptr, nullptr)) {
+      if (reprojection_jacobians(camera, SE3::exp(poses[obs[i].kf]), pts[obs[i].point], obs[i].uv,
+                                 &r, nullptr, nullptr)) {
         s += r.squaredNorm();
         ++n;
       }
     }
     return n ? std::sqrt(s / n) : 0.0;
   };
-  res.initial_rms_px = rms();
+  sol.result.initial_rms_px = rms();
 
   // Two stages as in ORB-SLAM: robust solve, drop outliers, solve again without them.
   for (int stage = 0; stage < 2; ++stage) {
@@ -211,24 +219,21 @@ LocalBaResult local_bundle_adjustment(Map& map, KeyframeId current, const Pinhol
     Se3LeftManifold manifold;
     for (std::size_t i = 0; i < obs.size(); ++i) {
       if (!active[i]) continue;
-      const auto& f = map.keyframe(obs[i].kf)->features;
-      const auto& kp = f.keypoints[static_cast<std::size_t>(obs[i].feature)];
-      const double sqrt_info = 1.0 / f.level_scale(kp.level);
-      problem.AddResidualBlock(new ReprojectionCost(camera, kp.un, sqrt_info),
+      const auto& o = obs[i];
+      problem.AddResidualBlock(new ReprojectionCost(camera, o.uv, o.sqrt_info),
                                new ceres::HuberLoss(std::sqrt(options.chi2_outlier)),
-                               poses[obs[i].kf].data(), pts[obs[i].point].data());
-      const auto fi = static_cast<std::size_t>(obs[i].feature);
-      if (options.virtual_bf > 0.0 && f.has_depth(fi)) {
+                               poses[o.kf].data(), pts[o.point].data());
+      if (options.virtual_bf > 0.0 && o.depth > 0.0) {
         problem.AddResidualBlock(
-            new DisparityCost(options.virtual_bf, options.virtual_bf / f.depth[fi], sqrt_info),
-            new ceres::HuberLoss(std::sqrt(options.chi2_outlier_depth)), poses[obs[i].kf].data(),
-            pts[obs[i].point].data());
+            new DisparityCost(options.virtual_bf, options.virtual_bf / o.depth, o.sqrt_info),
+            new ceres::HuberLoss(std::sqrt(options.chi2_outlier_depth)), poses[o.kf].data(),
+            pts[o.point].data());
       }
     }
     for (auto& [k, xi] : poses) {
       if (!problem.HasParameterBlock(xi.data())) continue;
       problem.SetManifold(xi.data(), &manifold);
-      if (fixed.count(k)) problem.SetParameterBlockConstant(xi.data());
+      if (pb.fixed.count(k)) problem.SetParameterBlockConstant(xi.data());
     }
     ceres::Solver::Options so;
     so.linear_solver_type = ceres::SPARSE_SCHUR;
@@ -239,48 +244,72 @@ LocalBaResult local_bundle_adjustment(Map& map, KeyframeId current, const Pinhol
     ceres::Solve(so, &problem, &summary);
     for (std::size_t i = 0; i < obs.size(); ++i) {
       if (!active[i]) continue;
-      const auto& f = map.keyframe(obs[i].kf)->features;
-      const auto& kp = f.keypoints[static_cast<std::size_t>(obs[i].feature)];
-      const SE3 T = SE3::exp(poses[obs[i].kf]);
+      const auto& o = obs[i];
+      const SE3 T = SE3::exp(poses[o.kf]);
       Vec2 r;
       const bool front =
-          reprojection_jacobians(camera, T, pts[obs[i].point], kp.un, &r, nullptr, nullptr);
+          reprojection_jacobians(camera, T, pts[o.point], o.uv, &r, nullptr, nullptr);
       double chi2 = r.squaredNorm();
       double threshold = options.chi2_outlier;
-      const auto fi = static_cast<std::size_t>(obs[i].feature);
-      if (front && options.virtual_bf > 0.0 && f.has_depth(fi)) {
+      if (front && options.virtual_bf > 0.0 && o.depth > 0.0) {
         double rd = 0.0;
-        disparity_jacobians(options.virtual_bf, T, pts[obs[i].point],
-                            options.virtual_bf / f.depth[fi], &rd, nullptr, nullptr);
+        disparity_jacobians(options.virtual_bf, T, pts[o.point], options.virtual_bf / o.depth, &rd,
+                            nullptr, nullptr);
         chi2 += rd * rd;
         threshold = options.chi2_outlier_depth;
       }
-      if (!front || chi2 / f.level_sigma2(kp.level) > threshold) active[i] = 0;
+      if (!front || chi2 / o.level_sigma2 > threshold) active[i] = 0;
     }
   }
-  res.final_rms_px = rms();
+  sol.result.final_rms_px = rms();
 
-  for (KeyframeId k : local) {
-    const SE3 T_c_w = SE3::exp(poses[k]);
-    if (T_c_w.is_finite()) map.keyframe(k)->T_w_c = T_c_w.inverse();
+  for (const auto& [k, xi] : poses) {
+    if (pb.fixed.count(k)) continue;
+    const SE3 T_c_w = SE3::exp(xi);
+    if (T_c_w.is_finite()) sol.T_c_w[k] = T_c_w;
   }
-  for (auto& [p, x] : pts) {
-    if (x.allFinite()) map.point(p)->p_w = x;
+  for (const auto& [p, x] : pts) {
+    if (x.allFinite()) sol.points[p] = x;
   }
   for (std::size_t i = 0; i < obs.size(); ++i) {
-    if (!active[i] && map.point(obs[i].point)) {
-      map.erase_observation(obs[i].point, obs[i].kf);
-      ++res.outliers_removed;
-    }
+    if (!active[i]) sol.outliers.emplace_back(obs[i].point, obs[i].kf);
   }
-  for (PointId p : points) {
+  sol.result.keyframes = static_cast<int>(pb.T_c_w.size() - pb.fixed.size());
+  sol.result.fixed = static_cast<int>(pb.fixed.size());
+  sol.result.points = static_cast<int>(pb.points.size());
+  sol.result.observations = static_cast<int>(obs.size());
+  sol.result.ran = true;
+  return sol;
+}
+
+int apply_local_ba(Map& map, const LocalBaSolution& sol) {
+  for (const auto& [k, T_c_w] : sol.T_c_w) {
+    if (Keyframe* kf = map.keyframe(k)) kf->T_w_c = T_c_w.inverse();
+  }
+  for (const auto& [p, x] : sol.points) {
+    if (auto* mp = map.point(p)) mp->p_w = x;
+  }
+  int removed = 0;
+  for (const auto& [p, k] : sol.outliers) {
+    const auto* mp = map.point(p);
+    if (!mp || !mp->observations.count(k)) continue;
+    map.erase_observation(p, k);
+    ++removed;
+  }
+  for (const auto& [p, x] : sol.points) {
+    (void)x;
     if (map.point(p)) map.update_point(p);
   }
-  res.keyframes = static_cast<int>(local.size());
-  res.fixed = static_cast<int>(fixed.size());
-  res.points = static_cast<int>(points.size());
-  res.observations = static_cast<int>(obs.size());
-  res.ran = true;
+  return removed;
+}
+
+LocalBaResult local_bundle_adjustment(Map& map, KeyframeId current, const PinholeCamera& camera,
+                                      const LocalBaOptions& options) {
+  const auto pb = gather_local_ba(map, current, options);
+  if (!pb) return {};
+  const LocalBaSolution sol = solve_local_ba(*pb, camera, options);
+  LocalBaResult res = sol.result;
+  res.outliers_removed = apply_local_ba(map, sol);
   return res;
 }
 

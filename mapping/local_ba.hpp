@@ -1,7 +1,13 @@
 #pragma once
 // Local bundle adjustment (Ceres): the newest keyframe, its covisible keyframes and the points
 // they see are optimized; other keyframes that see those points hold still and anchor the
-// solution. Reprojection error with a Huber kernel, analytic Jacobians. Called synchronously.
+// solution. Reprojection error with a Huber kernel, analytic Jacobians. Either synchronously
+// (local_bundle_adjustment) or in three steps so that the solve can run on another thread:
+// gather_local_ba copies what it needs out of the map (the map's owner), solve_local_ba works
+// on that copy alone, apply_local_ba writes back what still exists (the map's owner again).
+#include <map>
+#include <optional>
+#include <set>
 #include <vector>
 
 #include "core/camera.hpp"
@@ -41,6 +47,39 @@ bool reprojection_jacobians(const PinholeCamera& camera, const SE3& T_c_w, const
 // Residual bf / z_c - measured disparity and its Jacobians (same conventions as above).
 bool disparity_jacobians(double bf, const SE3& T_c_w, const Vec3& p_w, double measured, double* r,
                          Eigen::Matrix<double, 1, 6>* J_pose, Eigen::Matrix<double, 1, 3>* J_point);
+
+// What one local BA needs, copied out of the map.
+struct LocalBaProblem {
+  KeyframeId current = -1;
+  std::map<KeyframeId, SE3> T_c_w;  // optimized and fixed keyframes, at gather time
+  std::set<KeyframeId> fixed;
+  std::map<PointId, Vec3> points;
+  struct Observation {
+    KeyframeId kf;
+    PointId point;
+    Vec2 uv;              // undistorted keypoint
+    double sqrt_info;     // 1 / level scale
+    double level_sigma2;  // for the outlier test
+    double depth;         // metres; 0 without
+  };
+  std::vector<Observation> observations;
+};
+
+struct LocalBaSolution {
+  KeyframeId current = -1;
+  std::map<KeyframeId, SE3> T_c_w;  // the optimized keyframes only
+  std::map<PointId, Vec3> points;
+  std::vector<std::pair<PointId, KeyframeId>> outliers;  // observations to drop
+  LocalBaResult result;
+};
+
+// Nothing when the keyframe is gone or the window has nothing to optimize.
+std::optional<LocalBaProblem> gather_local_ba(const Map& map, KeyframeId current,
+                                              const LocalBaOptions& options = {});
+LocalBaSolution solve_local_ba(const LocalBaProblem& problem, const PinholeCamera& camera,
+                               const LocalBaOptions& options = {});
+// Keyframes and points culled since the gather are skipped; returns the observations dropped.
+int apply_local_ba(Map& map, const LocalBaSolution& solution);
 
 LocalBaResult local_bundle_adjustment(Map& map, KeyframeId current, const PinholeCamera& camera,
                                       const LocalBaOptions& options = {});

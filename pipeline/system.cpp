@@ -2,6 +2,7 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
@@ -136,6 +137,21 @@ struct System::Impl {
   // Loop-closing thread: place recognition on every keyframe; the pose graph over keyframes
   // runs when the run ends and corrects keyframes, objects and the trajectory.
   std::thread loop_thread;
+  // Local-mapping thread: the local BA of each new keyframe, solved on a copy of its window
+  // (mapping::gather_local_ba) and written back by the tracking thread before its next frame.
+  // The newest keyframe's request supersedes one not yet started; sequential runs wait for
+  // each solve, so they stay reproducible.
+  std::thread ba_thread;
+  std::mutex ba_mutex;
+  std::condition_variable ba_cv;
+  std::optional<mapping::LocalBaProblem> ba_request;  // under ba_mutex
+  std::vector<mapping::LocalBaSolution> ba_results;   // under ba_mutex
+  bool ba_busy = false;                               // under ba_mutex
+  bool ba_stop = false;                               // under ba_mutex
+  std::size_t ba_superseded = 0;                      // under ba_mutex
+  std::size_t ba_outliers = 0;                        // tracking thread
+  std::vector<mapping::KeyframeId> awaiting_ba;       // tracking thread: keyframes whose
+                                                      // loop job waits for their local BA
   BoundedQueue<LoopJob> loop_jobs{16, FullPolicy::kBlock};
   std::unique_ptr<loop::Vocabulary> vocabulary;
   std::unique_ptr<loop::LoopDetector> loop_detector;
@@ -165,7 +181,12 @@ struct System::Impl {
         dynamic_classes(options.dynamic_classes.empty()
                             ? detect::DynamicClassList()
                             : detect::DynamicClassList(options.dynamic_classes)),
-        tracker(c.camera, options.tracker),
+        tracker(c.camera,
+                [&] {
+                  tracking::TrackerOptions t = options.tracker;
+                  if (options.async_local_ba) t.inline_mapping = false;
+                  return t;
+                }()),
         frames(options.frame_queue, FullPolicy::kBlock),
         detection_frames(options.detection_queue,
                          options.sequential ? FullPolicy::kBlock : FullPolicy::kDropOldest),
@@ -245,6 +266,97 @@ struct System::Impl {
     prior.rotation_sigma = options.inertial_prior_rotation_sigma * (1.0 + h / 0.1);
     prior.translation_sigma = options.inertial_prior_translation_sigma + 0.05 * h + 0.5 * h * h;
     return prior;
+  }
+
+  void ba_loop() {
+    std::unique_lock<std::mutex> lock(ba_mutex);
+    for (;;) {
+      ba_cv.wait(lock, [&] { return ba_request.has_value() || ba_stop; });
+      if (!ba_request) return;  // stopped, and nothing left to solve
+      mapping::LocalBaProblem pb = std::move(*ba_request);
+      ba_request.reset();
+      ba_busy = true;
+      lock.unlock();
+      const auto t0 = Clock::now();
+      mapping::LocalBaSolution sol = mapping::solve_local_ba(pb, calib.camera, options.tracker.ba);
+      stats.record("mapping.local_ba", ms_since(t0));
+      lock.lock();
+      ba_results.push_back(std::move(sol));
+      ba_busy = false;
+      ba_cv.notify_all();
+    }
+  }
+
+  // Tracking thread (and finish()): writes solved local BAs back into the tracker's map.
+  void apply_local_ba_results(bool wait) {
+    std::vector<mapping::LocalBaSolution> done;
+    {
+      std::unique_lock<std::mutex> lock(ba_mutex);
+      if (wait) ba_cv.wait(lock, [&] { return !ba_request && !ba_busy; });
+      done.swap(ba_results);
+    }
+    for (const auto& sol : done) {
+      ba_outliers += static_cast<std::size_t>(tracker.apply_local_ba(sol));
+      loop_job_ready(sol.current);
+      // The keyframe's own frame reports the refined pose, as it does with inline BA.
+      const mapping::Keyframe* kf = tracker.map().keyframe(sol.current);
+      if (!kf) continue;
+      const double t = to_seconds(kf->t);
+      std::lock_guard<std::mutex> lock(result_mutex);
+      for (std::size_t i = trajectory.size(); i-- > 0;) {
+        if (trajectory.stamps[i] < t) break;
+        if (trajectory.stamps[i] == t) {
+          trajectory.poses[i] = kf->T_w_c * calib.T_body_camera.inverse();
+          break;
+        }
+      }
+    }
+  }
+
+  // Hands the newest keyframe's local BA to the local-mapping thread; returns its keyframe.
+  mapping::KeyframeId request_local_ba() {
+    auto pb = tracker.take_local_ba();
+    if (!pb) return -1;
+    const mapping::KeyframeId id = pb->current;
+    mapping::KeyframeId superseded = -1;
+    {
+      std::lock_guard<std::mutex> lock(ba_mutex);
+      if (ba_request) {
+        ++ba_superseded;
+        superseded = ba_request->current;
+      }
+      ba_request = std::move(pb);
+    }
+    ba_cv.notify_all();
+    if (superseded >= 0) loop_job_ready(superseded);  // its BA will not come
+    return id;
+  }
+
+  // A keyframe whose local BA is done (or dropped) goes on to place recognition.
+  void loop_job_ready(mapping::KeyframeId id) {
+    const auto it = std::find(awaiting_ba.begin(), awaiting_ba.end(), id);
+    if (it == awaiting_ba.end()) return;
+    awaiting_ba.erase(it);
+    push_loop_job(id);
+  }
+
+  void push_loop_job(mapping::KeyframeId id) {
+    if (!loop_detector) return;
+    const mapping::Keyframe* kf = tracker.map().keyframe(id);
+    if (!kf) return;
+    LoopJob job;
+    job.t = kf->t;
+    job.T_w_c = kf->T_w_c;
+    job.view.id = kf->id;
+    const tracking::FrameFeatures& ff = kf->features;
+    job.view.descriptors = ff.descriptors;
+    job.view.points_c = ff.points_c;
+    for (std::size_t i = 0; i < ff.size(); ++i) {
+      job.view.keypoints_un.push_back(ff.keypoints[i].un);
+      job.view.has_point.push_back(ff.has_depth(i) ? 1 : 0);
+    }
+    job.view.neighbours = tracker.map().covisible(kf->id, 10);
+    loop_jobs.push(std::move(job));
   }
 
   void process(QueuedFrame& q) {
@@ -338,6 +450,7 @@ struct System::Impl {
     for (std::size_t i = 0; i < keep.size(); ++i) report.feature_dynamic[i] = keep[i] ? 0 : 1;
 
     if (!world_initialized) initialize_world(frame.t);
+    apply_local_ba_results(options.sequential);
     const std::optional<tracking::MotionPrior> prior = inertial_prediction(frame.t);
     std::optional<SE3> predicted;
     if (prior) predicted = prior->T_w_c;
@@ -346,6 +459,7 @@ struct System::Impl {
                                          ? tracker.track(std::move(features), *prior, &keep)
                                          : tracker.track(std::move(features), predicted, &keep);
     stats.record("tracking", ms_since(t0));
+    const mapping::KeyframeId local_ba_requested = request_local_ba();
     if (inertial) {
       const SE3 T_w_b = tr.T_w_c * calib.T_body_camera.inverse();
       // A relocalized pose is not continuous with the fixes before the loss.
@@ -389,21 +503,12 @@ struct System::Impl {
       }
       removal += report.removal;
     }
-    if (tr.new_keyframe && loop_detector) {
-      if (const mapping::Keyframe* kf = tracker.map().keyframe(tr.keyframe_id)) {
-        LoopJob job;
-        job.t = kf->t;
-        job.T_w_c = kf->T_w_c;
-        job.view.id = kf->id;
-        const tracking::FrameFeatures& ff = kf->features;
-        job.view.descriptors = ff.descriptors;
-        job.view.points_c = ff.points_c;
-        for (std::size_t i = 0; i < ff.size(); ++i) {
-          job.view.keypoints_un.push_back(ff.keypoints[i].un);
-          job.view.has_point.push_back(ff.has_depth(i) ? 1 : 0);
-        }
-        job.view.neighbours = tracker.map().covisible(kf->id, 10);
-        loop_jobs.push(std::move(job));
+    if (tr.new_keyframe) {
+      // Place recognition sees the keyframe after its local BA (it anchors loop corrections).
+      if (local_ba_requested == tr.keyframe_id) {
+        awaiting_ba.push_back(tr.keyframe_id);
+      } else {
+        push_loop_job(tr.keyframe_id);
       }
     }
     if (tr.new_keyframe && !frame.depth.empty()) {
@@ -557,6 +662,9 @@ System::System(const Calibration& calib, SystemOptions options,
   impl_->tracking_thread = std::thread([this] { impl_->tracking_loop(); });
   if (impl_->detector) impl_->detection_thread = std::thread([this] { impl_->detection_loop(); });
   impl_->mapping_thread = std::thread([this] { impl_->mapping_loop(); });
+  if (!impl_->tracker.options().inline_mapping) {
+    impl_->ba_thread = std::thread([this] { impl_->ba_loop(); });
+  }
   const std::string voc = impl_->options.vocabulary;
   if (!voc.empty() && std::filesystem::exists(voc)) {
     impl_->vocabulary = std::make_unique<loop::Vocabulary>(loop::Vocabulary::load(voc));
@@ -615,6 +723,21 @@ void System::finish() {
   impl_->detection_frames.close();
   impl_->frames.close();
   if (impl_->tracking_thread.joinable()) impl_->tracking_thread.join();
+  if (impl_->ba_thread.joinable()) {
+    {
+      std::lock_guard<std::mutex> lock(impl_->ba_mutex);
+      impl_->ba_stop = true;
+    }
+    impl_->ba_cv.notify_all();
+    impl_->ba_thread.join();  // solves what is still requested first
+    impl_->apply_local_ba_results(false);
+    for (const mapping::KeyframeId id : std::vector<mapping::KeyframeId>(impl_->awaiting_ba)) {
+      impl_->loop_job_ready(id);
+    }
+    std::lock_guard<std::mutex> lock(impl_->ba_mutex);
+    impl_->stats.set_counter("mapping.local_ba_superseded", impl_->ba_superseded);
+    impl_->stats.set_counter("mapping.local_ba_outliers", impl_->ba_outliers);
+  }
   impl_->mapping_jobs.close();
   impl_->loop_jobs.close();
   if (impl_->mapping_thread.joinable()) impl_->mapping_thread.join();

@@ -6,9 +6,11 @@
 //                     pose prediction (imu::InertialPredictor); features -> dynamic filter
 //                     (boxes matched by stamp, flow, epipolar, homography/IMU) -> static
 //                     features -> tracker (pose, keyframes, map) -> observers
-// Local mapping currently runs inside the tracker (TrackerOptions::inline_mapping); the loop
-// closing thread arrives with the loop/ module. `sequential` runs every stage in lock-step so
-// tests are reproducible: the tracker waits for the detection of its own frame.
+//   local-mapping thread: local BA of each new keyframe on a copy of its window
+//   mapping thread  : dense maps and objects per keyframe
+//   loop thread     : place recognition per keyframe; the pose graph when the run ends
+// `sequential` runs every stage in lock-step so tests are reproducible: the tracker waits for
+// the detection of its own frame and for the local BA of the keyframe before.
 #include <functional>
 #include <memory>
 #include <optional>
@@ -45,6 +47,8 @@ struct SystemOptions {
   // RGB-D + IMU / stereo + IMU: the IMU predicts each frame's pose for the tracker and carries
   // the pose through a lost track (when the calibration has an IMU). Off: visual only.
   bool use_imu = true;
+  // Local BA on its own thread (the tracker's inline_mapping off); false: inside track().
+  bool async_local_ba = true;
   imu::InertialPredictorOptions inertial;  // noise is taken from the calibration
   // The IMU's prediction also weighs in each frame's pose optimization (a PosePrior with
   // these sigmas one frame after a fix), and vision that disagrees with it is re-matched

@@ -555,9 +555,14 @@ KeyframeId Tracker::insert_keyframe(FrameFeatures&& f, const Matched& m, const S
                                              options_.features.max_depth);
   }
   map_.update_connections(kid);
-  if (options_.inline_mapping) {
-    map_.cull_points(kid, options_.culling);
-    if (options_.local_ba) mapping::local_bundle_adjustment(map_, kid, camera_, options_.ba);
+  map_.cull_points(kid, options_.culling);
+  if (options_.local_ba) {
+    if (options_.inline_mapping) {
+      mapping::local_bundle_adjustment(map_, kid, camera_, options_.ba);
+    } else {
+      // A newer keyframe's window supersedes a request not yet taken.
+      pending_ba_ = mapping::gather_local_ba(map_, kid, options_.ba);
+    }
   }
   reference_kf_ = last_kf_ = kid;
   frames_since_keyframe_ = 0;
@@ -566,6 +571,26 @@ KeyframeId Tracker::insert_keyframe(FrameFeatures&& f, const Matched& m, const S
     if (p != kNoPoint) last_matches_.push_back(p);
   }
   return kid;
+}
+
+std::optional<mapping::LocalBaProblem> Tracker::take_local_ba() {
+  std::optional<mapping::LocalBaProblem> out = std::move(pending_ba_);
+  pending_ba_.reset();
+  return out;
+}
+
+int Tracker::apply_local_ba(const mapping::LocalBaSolution& solution) {
+  const mapping::Keyframe* kf = map_.keyframe(solution.current);
+  const std::optional<SE3> before = kf ? std::optional<SE3>(kf->T_w_c) : std::nullopt;
+  const int removed = mapping::apply_local_ba(map_, solution);
+  // As inline: when no frame has been tracked since its keyframe, the track continues from
+  // the refined pose.
+  if (before && solution.current == last_kf_ && frames_since_keyframe_ == 0) {
+    const SE3 refined = map_.keyframe(last_kf_)->T_w_c;
+    if (velocity_) velocity_ = *velocity_ * before->inverse() * refined;
+    last_T_w_c_ = refined;
+  }
+  return removed;
 }
 
 void Tracker::update_reference(const Matched& m) {

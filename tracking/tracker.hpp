@@ -2,8 +2,8 @@
 // Frame-to-map RGB-D tracking, ORB-SLAM3-style: constant-velocity (or given) prediction,
 // matching of local map points by projection, PnP-RANSAC when the prediction is unusable,
 // motion-only optimization, keyframe decision, relocalization when lost. One thread: pipeline/
-// calls track() frame by frame. With inline_mapping (the default for now) a new keyframe's
-// points, culling and local BA run inside track().
+// calls track() frame by frame. A new keyframe's points and culling run inside track(); its
+// local BA too with inline_mapping, else on pipeline/'s local-mapping thread.
 #include <cstdint>
 #include <optional>
 #include <vector>
@@ -59,7 +59,8 @@ struct TrackerOptions {
   int min_frames_between_keyframes = 0;
   double close_depth = 3.0;  // metres: "close" points are reliable for new map points
   int min_new_points = 100;  // per keyframe, nearest first, even beyond close_depth
-  // Inline mapping until pipeline/ runs it on its own thread.
+  // Local BA inside track() (tests, single-threaded use), or handed out by take_local_ba()
+  // for pipeline/'s local-mapping thread to solve and apply_local_ba() to write back.
   bool inline_mapping = true;
   bool local_ba = true;
   mapping::LocalBaOptions ba;
@@ -113,11 +114,17 @@ class Tracker {
                     const std::vector<std::uint8_t>* keep = nullptr);
 
   const FeatureExtractor& extractor() const { return extractor_; }
+  const TrackerOptions& options() const { return options_; }
   const mapping::Map& map() const { return map_; }
   mapping::Map& map() { return map_; }
   TrackingState state() const { return state_; }
   const SE3& last_pose() const { return last_T_w_c_; }
   void reset();
+  // With inline_mapping off: the local BA of the newest keyframe, copied out of the map, once.
+  std::optional<mapping::LocalBaProblem> take_local_ba();
+  // Writes a solved local BA back (what was culled meanwhile is skipped); returns the
+  // observations it dropped as outliers.
+  int apply_local_ba(const mapping::LocalBaSolution& solution);
   // Continues in a saved map (multi-session): the next frame relocalizes against all of it,
   // and the map grows from there. The pose stays at the map's last keyframe until then.
   void set_map(mapping::Map map);
@@ -145,6 +152,7 @@ class Tracker {
   PinholeCamera camera_;
   TrackerOptions options_;
   std::optional<PosePrior> prior_;  // during track(features, prior, keep) only
+  std::optional<mapping::LocalBaProblem> pending_ba_;
   FeatureExtractor extractor_;
   mapping::Map map_;
   TrackingState state_ = TrackingState::kInitializing;
