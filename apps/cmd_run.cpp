@@ -154,6 +154,7 @@ std::string fmt_1(double v) {
 
 void print_summary(const char* name, const RunSummary& s) {
   std::printf("%s: %zu frames, %zu tracked, %zu lost", name, s.frames, s.tracked, s.lost);
+  if (s.inertial_only > 0) std::printf(" (%zu of them carried by the IMU)", s.inertial_only);
   if (s.ape_rmse_m >= 0) std::printf(", APE RMSE %.4f m (%zu pairs)", s.ape_rmse_m, s.ape_pairs);
   std::printf("\n");
   if (s.has_truth_masks) {

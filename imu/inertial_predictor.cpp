@@ -54,8 +54,8 @@ void InertialPredictor::add_fix(Timestamp t, const SE3& T_w_b) {
   const Timestamp keep = from_seconds(std::max(options_.velocity_window_s, options_.bias_window_s));
   while (fixes_.size() > 2 && fixes_.back().t - fixes_[1].t >= keep) fixes_.pop_front();
   if (bias_updated_at_ == 0) bias_updated_at_ = fixes_.front().t;
-  if (fixes_.back().t - bias_updated_at_ >= from_seconds(options_.bias_window_s)) {
-    update_biases();
+  if (fixes_.back().t - bias_updated_at_ >= from_seconds(options_.bias_window_s) &&
+      update_biases()) {
     bias_updated_at_ = fixes_.back().t;
   }
   update_velocity();
@@ -63,25 +63,30 @@ void InertialPredictor::add_fix(Timestamp t, const SE3& T_w_b) {
 
 namespace {
 
-// Kalman update of a bias estimate x (covariance P) with a measurement z (covariance C).
-void fuse(Vec3& x, Mat3& P, const Vec3& z, const Mat3& C) {
-  const Mat3 K = P * (P + C).inverse();
-  if (!K.allFinite()) return;
-  x += K * (z - x);
+// Kalman update of a bias estimate x (covariance P) with a measurement z (covariance C). A
+// measurement beyond the 99.9% gate of chi-square with 3 dof (a window with a bad track in
+// it: fix errors are not the white noise C assumes) is not fused.
+bool fuse(Vec3& x, Mat3& P, const Vec3& z, const Mat3& C) {
+  const Mat3 S_inv = (P + C).inverse();
+  const Vec3 d = z - x;
+  if (!S_inv.allFinite() || d.dot(S_inv * d) > 16.27) return false;
+  const Mat3 K = P * S_inv;
+  x += K * d;
   P = (Mat3::Identity() - K) * P;
+  return true;
 }
 
 }  // namespace
 
-void InertialPredictor::update_biases() {
+bool InertialPredictor::update_biases() {
   // The fixes of the window that just filled (they start at the previous update).
   std::size_t first = 0;
   while (first + 1 < fixes_.size() && fixes_[first].t < bias_updated_at_) ++first;
   const std::size_t n = fixes_.size() - first;
-  if (n < 6) return;
+  if (n < 6) return false;
   const double window = to_seconds(fixes_.back().t - fixes_[first].t);
   // Random walk since the last update.
-  const double h = window * options_.noise.rate_hz > 0 ? window : 0.0;
+  const double h = window;
   acc_bias_cov_ += Mat3::Identity() * options_.noise.acc_walk * options_.noise.acc_walk * h;
   gyro_bias_cov_ += Mat3::Identity() * options_.noise.gyro_walk * options_.noise.gyro_walk * h;
 
@@ -120,7 +125,7 @@ void InertialPredictor::update_biases() {
   // takes the first fix's own noise, which would otherwise bias every term.
   const Fix& j = fixes_[first];
   const std::vector<ImuSample> s = samples_between(j.t, fixes_.back().t);
-  if (s.size() < 2) return;
+  if (s.size() < 2) return false;
   using Mat9 = Eigen::Matrix<double, 9, 9>;
   using Vec9 = Eigen::Matrix<double, 9, 1>;
   const double w_fix = 1.0 / (options_.fix_sigma * options_.fix_sigma);
@@ -144,16 +149,17 @@ void InertialPredictor::update_biases() {
     b += w_fix * A.transpose() * y;
   }
   const Eigen::LDLT<Mat9> ldlt(H);
-  if (ldlt.info() != Eigen::Success) return;
+  if (ldlt.info() != Eigen::Success) return false;
   const Vec9 x = ldlt.solve(b);
   const Mat9 cov = ldlt.solve(Mat9::Identity());
-  if (!x.allFinite() || !cov.allFinite()) return;
+  if (!x.allFinite() || !cov.allFinite()) return false;
   const Mat3 C = cov.bottomRightCorner<3, 3>();
   fuse(bias_.acc, acc_bias_cov_, bias_.acc + x.tail<3>(), 0.5 * (C + C.transpose()));
+  return true;
 }
 
 void InertialPredictor::update_velocity() {
-  v_last_.reset();
+  // A failure (the IMU not yet past this fix) keeps the last velocity with its own fix.
   const Fix& k = fixes_.back();
   std::size_t first = 0;
   const Timestamp window = from_seconds(options_.velocity_window_s);
@@ -185,12 +191,15 @@ void InertialPredictor::update_velocity() {
   if (det <= 0.0) return;
   const Vec3 v_j = (n * sum_ty - sum_t * sum_y) / det;
   const Vec3 v_k = v_j + g * pre.dt() + R_j * pre.delta_v();
-  if (v_k.allFinite()) v_last_ = v_k;
+  if (v_k.allFinite()) {
+    v_last_ = v_k;
+    v_fix_ = k;
+  }
 }
 
 std::optional<InertialPrediction> InertialPredictor::predict(Timestamp t) const {
   if (!v_last_ || fixes_.empty()) return std::nullopt;
-  const Fix& k = fixes_.back();
+  const Fix& k = v_fix_;
   if (t < k.t || t - k.t > from_seconds(options_.max_gap_s)) return std::nullopt;
   InertialPrediction out;
   out.since_fix_s = to_seconds(t - k.t);

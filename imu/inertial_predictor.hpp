@@ -68,6 +68,9 @@ class InertialPredictor {
   // the IMU does not reach t, or the last fix is more than max_gap_s old.
   std::optional<InertialPrediction> predict(Timestamp t) const;
 
+  // World gravity, when the world is not the z-up one the options assume.
+  void set_gravity(const Vec3& g) { options_.gravity = g; }
+
   const ImuBias& bias() const { return bias_; }
   std::size_t fixes() const { return fixes_.size(); }
   // Velocity at the newest fix, once the window is long enough.
@@ -79,7 +82,7 @@ class InertialPredictor {
     SE3 T_w_b;
   };
   std::vector<ImuSample> samples_between(Timestamp t0, Timestamp t1) const;
-  void update_biases();
+  bool update_biases();  // false: no update (too few fixes, no IMU, a failed solve)
   void update_velocity();
 
   InertialPredictorOptions options_;
@@ -90,6 +93,7 @@ class InertialPredictor {
   Mat3 gyro_bias_cov_;
   Timestamp bias_updated_at_ = 0;  // stamp of the newest fix the biases have seen
   std::optional<Vec3> v_last_;
+  Fix v_fix_{0, SE3()};  // the fix v_last_ belongs to
 };
 
 }  // namespace kestrel::imu

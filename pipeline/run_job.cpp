@@ -180,8 +180,12 @@ RunSummary run_sequence(io::MeasurementSource& source, const RunOptions& options
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 
   const Trajectory traj = system.trajectory();
-  summary.tracked = traj.size();
   summary.lost = system.frames_lost();
+  const auto counters = system.stats().counters();
+  if (auto it = counters.find("frames.inertial_only"); it != counters.end()) {
+    summary.inertial_only = it->second;
+  }
+  summary.tracked = traj.size() - std::min(traj.size(), summary.inertial_only);
   summary.removal = system.removal();
   const auto stages = system.stats().summaries();
   double per_frame = 0.0;
@@ -226,6 +230,7 @@ std::string summary_json(const RunSummary& s) {
   j["frames"] = s.frames;
   j["tracked"] = s.tracked;
   j["lost"] = s.lost;
+  j["inertial_only"] = s.inertial_only;
   j["ape_rmse_m"] = s.ape_rmse_m;
   j["ape_pairs"] = s.ape_pairs;
   if (s.has_truth_masks) {

@@ -43,8 +43,9 @@ struct KeptFrame {
 
 struct RunSummary {
   std::size_t frames = 0;
-  std::size_t tracked = 0;
+  std::size_t tracked = 0;        // frames with a visual pose
   std::size_t lost = 0;
+  std::size_t inertial_only = 0;  // lost frames whose pose the IMU carried (in the trajectory)
   double ape_rmse_m = -1.0;  // -1 without ground truth
   std::size_t ape_pairs = 0;
   dynamic::RemovalCounts removal;

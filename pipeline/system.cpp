@@ -29,8 +29,8 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-constexpr int kRejectedPatch = 8;
-constexpr Timestamp kSecond = 1'000'000'000;  // pixels masked around a feature rejected as dynamic
+constexpr int kRejectedPatch = 8;  // pixels masked around a feature rejected as dynamic
+constexpr Timestamp kSecond = 1'000'000'000;
 
 double ms_since(Clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
@@ -167,12 +167,21 @@ struct System::Impl {
   Image prev_depth;  // for the filter's depth-change test (a mover walking at the camera)
   double prev_depth_scale = 5000.0;
   Timestamp prev_t = 0;
-  bool inertial = false;  // IMU used for prediction
+  bool inertial = false;         // IMU used at all (wait, gyro for the filter, prediction)
+  bool imu_missing = false;      // under imu_mutex: the calibration has an IMU, the stream none
+  Timestamp first_frame_t = -1;  // under imu_mutex
+  // World gravity for the predictor: known when the world was aligned to gravity (ground truth
+  // or the accelerometer before the first frame); else estimated from the first tracked
+  // frames, and no prediction until then.
+  bool gravity_known = false;
+  Vec3 gravity_sum = Vec3::Zero();
+  int gravity_samples = 0;
   imu::InertialPredictor predictor;
   Timestamp imu_fed_until = 0;  // predictor has the IMU up to here
   std::size_t inertial_frames = 0;
-  std::size_t bridged = 0;          // lost tracks restarted at the IMU's pose
-  std::size_t prior_conflicts = 0;  // frames whose vision disagreed with the IMU
+  std::size_t bridged = 0;                   // lost tracks restarted at the IMU's pose
+  std::size_t prior_conflicts = 0;           // frames whose vision disagreed with the IMU
+  std::size_t relocalizations_rejected = 0;  // too far from the IMU's pose
 
   Impl(const Calibration& c, SystemOptions o, std::unique_ptr<detect::Detector> d)
       : calib(c),
@@ -230,14 +239,23 @@ struct System::Impl {
   // Time synchronization: a frame waits until the IMU has passed its stamp, so that its
   // interval is integrated exactly. The source is time-ordered, so a newer frame or the end of
   // input means the IMU for this one will not come; live runs also give up after imu_wait_ms.
+  // A calibration with an IMU whose stream brings none for a second stops the waiting (and the
+  // prediction); imu.missing says so.
   void wait_for_imu(Timestamp t) {
     std::unique_lock<std::mutex> lock(imu_mutex);
-    auto ready = [&] { return imu.latest() >= t || newest_frame_fed > t || input_closed; };
-    if (options.sequential) {
-      imu_cv.wait(lock, ready);
-    } else {
-      imu_cv.wait_for(lock, std::chrono::duration<double, std::milli>(options.imu_wait_ms), ready);
+    if (imu_missing) return;
+    if (first_frame_t < 0) first_frame_t = t;
+    if (imu.empty() && t - first_frame_t > kSecond) {
+      imu_missing = true;
+      return;
     }
+    auto ready = [&] { return imu.latest() >= t || newest_frame_fed > t || input_closed; };
+    // Sequential: the feeder's next measurement releases it; the bound only guards a caller
+    // that waits for this frame's report before feeding on.
+    const auto bound = options.sequential
+                           ? std::chrono::duration<double, std::milli>(30'000.0)
+                           : std::chrono::duration<double, std::milli>(options.imu_wait_ms);
+    imu_cv.wait_for(lock, bound, ready);
   }
 
   // Hands the IMU up to frame t to the predictor and returns its guess of the camera pose.
@@ -254,6 +272,7 @@ struct System::Impl {
     if (s.empty()) return std::nullopt;
     predictor.add_samples(s);
     imu_fed_until = t;
+    if (!gravity_known) return std::nullopt;
     if (tracker.state() == tracking::TrackingState::kInitializing) return std::nullopt;
     const auto p = predictor.predict(t);
     if (!p) return std::nullopt;
@@ -266,6 +285,36 @@ struct System::Impl {
     prior.rotation_sigma = options.inertial_prior_rotation_sigma * (1.0 + h / 0.1);
     prior.translation_sigma = options.inertial_prior_translation_sigma + 0.05 * h + 0.5 * h * h;
     return prior;
+  }
+
+  // Vision's disagreement with the IMU's prediction, in the prediction's own sigmas.
+  static double prior_chi2(const tracking::MotionPrior& p, const SE3& T_w_c) {
+    const Vec6 e = (T_w_c.inverse() * p.T_w_c).log();
+    if (!e.allFinite()) return -1.0;
+    return e.head<3>().squaredNorm() / (p.translation_sigma * p.translation_sigma) +
+           e.tail<3>().squaredNorm() / (p.rotation_sigma * p.rotation_sigma);
+  }
+
+  // Gravity in a world that is not gravity-aligned (no ground truth, no IMU before the first
+  // frame: EuRoC's IMU starts with its first image, so does a live one): the specific force
+  // rotated into the world, averaged over half a second of tracked frames, is -gravity as
+  // long as the body does not accelerate for that long.
+  void estimate_gravity(Timestamp t, const SE3& T_w_b) {
+    ImuSample s;
+    {
+      std::lock_guard<std::mutex> lock(imu_mutex);
+      if (!imu.at(t, &s)) return;
+    }
+    gravity_sum += T_w_b.so3() * s.acc;
+    if (++gravity_samples < 15) return;
+    const Vec3 g = -gravity_sum / gravity_samples;
+    if (std::fabs(g.norm() - imu::kGravityMagnitude) < 0.5) {
+      predictor.set_gravity(g.normalized() * imu::kGravityMagnitude);
+      gravity_known = true;
+    } else {
+      gravity_sum.setZero();  // accelerating: try the next half second
+      gravity_samples = 0;
+    }
   }
 
   void ba_loop() {
@@ -394,7 +443,7 @@ struct System::Impl {
     stats.record("features", ms_since(t0));
     report.features = static_cast<int>(features.size());
 
-    if (calib.has_imu) {
+    if (inertial) {
       t0 = Clock::now();
       wait_for_imu(frame.t);
       stats.record("imu_wait", ms_since(t0));
@@ -417,7 +466,7 @@ struct System::Impl {
       in.K = calib.camera.K();
       {
         std::lock_guard<std::mutex> lock(imu_mutex);
-        if (calib.has_imu) in.R_cur_prev = gyro_rotation(imu, prev_t, frame.t, calib.T_body_camera);
+        if (inertial) in.R_cur_prev = gyro_rotation(imu, prev_t, frame.t, calib.T_body_camera);
       }
       const dynamic::DynamicFilterResult r = dynamic::classify_features(in, options.dynamic);
       for (std::size_t i = 0; i < keep.size(); ++i) {
@@ -467,6 +516,7 @@ struct System::Impl {
       if (tr.state == tracking::TrackingState::kOk ||
           tr.state == tracking::TrackingState::kRelocalized) {
         predictor.add_fix(frame.t, T_w_b);
+        if (!gravity_known) estimate_gravity(frame.t, T_w_b);
       }
     }
     stats.record("tracking.match", tr.times.match_ms);
@@ -477,7 +527,9 @@ struct System::Impl {
     report.inliers = tr.inliers;
     report.keyframe = tr.new_keyframe;
     report.T_w_body = tr.T_w_c * calib.T_body_camera.inverse();
-    if (prior) report.imu_chi2 = tr.prior_chi2;
+    if (prior && tr.state != tracking::TrackingState::kLost) {
+      report.imu_chi2 = prior_chi2(*prior, tr.T_w_c);
+    }
     if (tr.state == tracking::TrackingState::kOk ||
         tr.state == tracking::TrackingState::kRelocalized) {
       report.source = tr.bridged          ? PoseSource::kBridged
@@ -498,6 +550,7 @@ struct System::Impl {
       if (report.inertial_only) ++inertial_frames;
       if (tr.bridged) ++bridged;
       if (tr.prior_conflict) ++prior_conflicts;
+      if (tr.relocalization_rejected) ++relocalizations_rejected;
       if (tr.state != tracking::TrackingState::kLost || report.inertial_only) {
         trajectory.push_back(to_seconds(frame.t), report.T_w_body);
       }
@@ -637,6 +690,7 @@ struct System::Impl {
     if (options.initial_T_w_body) {
       if (const auto T_w_b = options.initial_T_w_body(t)) {
         tracker.set_initial_pose(*T_w_b * calib.T_body_camera);
+        gravity_known = true;  // ground truth worlds are z up
         return;
       }
     }
@@ -653,6 +707,7 @@ struct System::Impl {
     if (acc.norm() < 5.0) return;  // not a plausible gravity reading
     const Quat R_w_b = Quat::FromTwoVectors(acc.normalized(), Vec3::UnitZ());
     tracker.set_initial_pose(SE3(R_w_b, Vec3::Zero()) * calib.T_body_camera);
+    gravity_known = true;
   }
 };
 
@@ -754,6 +809,11 @@ void System::finish() {
   impl_->stats.set_counter("frames.inertial_only", impl_->inertial_frames);
   impl_->stats.set_counter("tracking.bridged", impl_->bridged);
   impl_->stats.set_counter("tracking.imu_conflicts", impl_->prior_conflicts);
+  impl_->stats.set_counter("tracking.relocalizations_rejected", impl_->relocalizations_rejected);
+  {
+    std::lock_guard<std::mutex> lock(impl_->imu_mutex);
+    impl_->stats.set_counter("imu.missing", impl_->imu_missing ? 1 : 0);
+  }
 }
 
 void System::write_map_outputs(const std::string& dir) const {

@@ -82,9 +82,11 @@ TrackResult Tracker::track(FrameFeatures f, const MotionPrior& prior,
     p.information.diagonal() << Vec3::Constant(1.0 / (st * st)), Vec3::Constant(1.0 / (sr * sr));
     prior_ = p;
   }
-  TrackResult r = track(std::move(f), std::optional<SE3>(prior.T_w_c), keep);
-  prior_.reset();
-  return r;
+  struct ResetPrior {  // also when track() throws (a bad keep mask)
+    std::optional<PosePrior>& p;
+    ~ResetPrior() { p.reset(); }
+  } reset{prior_};
+  return track(std::move(f), std::optional<SE3>(prior.T_w_c), keep);
 }
 
 TrackResult Tracker::track(FrameFeatures f, const std::optional<SE3>& predicted,
@@ -215,7 +217,17 @@ TrackResult Tracker::track(FrameFeatures f, const std::optional<SE3>& predicted,
   res.times.match_ms = ms_since(tm) - optimize_ms;
 
   const int needed = relocalizing ? options_.min_inliers_relocalize : options_.min_inliers;
-  const bool ok = pose.ok && pose.inliers >= needed && pose.T_c_w.is_finite();
+  bool ok = pose.ok && pose.inliers >= needed && pose.T_c_w.is_finite();
+  if (ok && relocalizing && predicted && options_.relocalize_max_prediction_m > 0.0) {
+    // A relocalization far from where the IMU says the camera is found a look-alike place
+    // (a repeated facade, the same shelf twice).
+    const SE3 d = pose.T_c_w * *predicted;
+    if (d.translation().norm() > options_.relocalize_max_prediction_m ||
+        d.so3().angle() > options_.relocalize_max_prediction_rad) {
+      ok = false;
+      res.relocalization_rejected = true;
+    }
+  }
   res.matches = m.count;
   res.inliers = ok ? pose.inliers : 0;
   if (!ok && relocalizing && predicted && options_.bridge_after_lost_frames > 0 &&

@@ -53,6 +53,10 @@ struct TrackerOptions {
   // residual; 16.8 is 99%) is vision disagreeing with the IMU, and the points that agree with
   // the IMU's pose are tried instead. 0: no gate.
   double prior_gate_chi2 = 16.8;
+  // With a prediction (the IMU's, fresh), a relocalization further from it than this is
+  // rejected: a look-alike place. 0: no check.
+  double relocalize_max_prediction_m = 1.0;
+  double relocalize_max_prediction_rad = 0.35;
   // Keyframe decision (ORB-SLAM, RGB-D variant).
   double keyframe_ratio = 0.75;  // tracked / reference keyframe's tracked points
   int max_frames_between_keyframes = 30;
@@ -92,6 +96,7 @@ struct TrackResult {
   bool bridged = false;                  // lost, restarted at the predicted pose (TrackerOptions)
   bool prior_conflict = false;           // vision disagreed with the MotionPrior (prior_gate_chi2)
   double prior_chi2 = 0.0;               // the final pose's disagreement with the MotionPrior
+  bool relocalization_rejected = false;  // too far from the prediction
   mapping::KeyframeId keyframe_id = -1;  // the new keyframe, when there is one
   StageTimes times;
 };

@@ -30,12 +30,19 @@ InertialPredictor run(const Motion& m, double t_end, double sigma_p, double sigm
   std::mt19937 rng(seed);
   std::vector<ImuSample> imu = m.samples(0.0, imu_until, kImuRate);
   test::add_noise(imu, ImuNoise{}, 1.0 / kImuRate, rng);
-  // Samples arrive as they would live: up to each frame's stamp, then the rest.
+  // Samples arrive as the System hands them over: up to each frame's stamp, with one
+  // interpolated to exactly that stamp (pipeline::ImuBuffer::between), then the rest.
   std::size_t fed = 0;
   auto feed_until = [&](double t) {
     std::size_t n = fed;
-    while (n < imu.size() && to_seconds(imu[n].t) <= t + 1e-9) ++n;
-    p.add_samples(std::span<const ImuSample>(imu.data() + fed, n - fed));
+    const Timestamp ts = from_seconds(t);
+    while (n < imu.size() && imu[n].t <= ts) ++n;
+    std::vector<ImuSample> batch(imu.begin() + static_cast<long>(fed),
+                                 imu.begin() + static_cast<long>(n));
+    if (n > 0 && n < imu.size() && imu[n - 1].t < ts) {
+      batch.push_back(interpolate(imu[n - 1], imu[n], ts));
+    }
+    p.add_samples(batch);
     fed = n;
   };
   for (int f = 0; f / kFrameRate <= t_end; ++f) {
@@ -108,16 +115,19 @@ TEST(InertialPredictor, RefusesBeyondTheImuAndTheGap) {
 
 TEST(InertialPredictor, IgnoresNonFiniteInput) {
   const Motion m;
-  InertialPredictor p = run(m, 1.0, 0.01, 1e-3, 5, 3.0);
+  InertialPredictor p = run(m, 1.5, 0.01, 1e-3, 5, 3.0);
   const std::size_t n = p.fixes();
-  SE3 bad(m.rotation(1.5), Vec3(std::nan(""), 0.0, 0.0));
-  p.add_fix(from_seconds(1.5), bad);
+  SE3 bad(m.rotation(1.6), Vec3(std::nan(""), 0.0, 0.0));
+  p.add_fix(from_seconds(1.6), bad);
   EXPECT_EQ(p.fixes(), n);
-  ImuSample s = m.sample(3.1);
-  s.acc.x() = std::numeric_limits<double>::infinity();
-  p.add_samples(std::span<const ImuSample>(&s, 1));
-  const auto pred = p.predict(from_seconds(1.2));
-  ASSERT_TRUE(pred.has_value());
+  // An infinite reading between two good ones: integrated, it would poison the pose.
+  ImuSample inf = m.sample(3.1);
+  inf.acc.x() = std::numeric_limits<double>::infinity();
+  const ImuSample after = m.sample(3.2);
+  p.add_samples(std::span<const ImuSample>(&inf, 1));
+  p.add_samples(std::span<const ImuSample>(&after, 1));
+  const auto pred = p.predict(from_seconds(3.15));
+  ASSERT_TRUE(pred.has_value()) << "the infinite sample must be dropped, not integrated";
   EXPECT_TRUE(pred->T_w_b.is_finite());
 }
 
