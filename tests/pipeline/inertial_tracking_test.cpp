@@ -6,9 +6,13 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <iostream>
+#include <map>
 #include <variant>
 
+#include "core/error.hpp"
 #include "io/dataset.hpp"
+#include "pipeline/run_job.hpp"
 #include "pipeline/system.hpp"
 #include "sim/scenario.hpp"
 #include "sim/sequence_recorder.hpp"
@@ -132,6 +136,102 @@ TEST(InertialTracking, WithoutTheImuTheBlackoutIsLost) {
   EXPECT_LE(r.trajectory.size() + 12, r.reports.size());
   for (const FrameReport& f : r.reports) {
     if (blacked_out(f.t)) EXPECT_EQ(f.source, PoseSource::kNone);
+  }
+}
+
+}  // namespace
+}  // namespace kestrel::pipeline
+
+namespace kestrel::pipeline {
+namespace {
+
+std::string mode_error(const std::string& mode, const Calibration& c) {
+  try {
+    mode_uses_imu(mode, c);
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(SensorMode, AutoTakesTheRichestAndAnImpossibleModeNamesItself) {
+  Calibration rgbd_imu;
+  rgbd_imu.has_imu = true;
+  Calibration rgbd;
+  Calibration stereo_imu = rgbd_imu;
+  stereo_imu.right = stereo_imu.camera;
+  EXPECT_TRUE(mode_uses_imu("auto", rgbd_imu));
+  EXPECT_FALSE(mode_uses_imu("auto", rgbd));
+  EXPECT_TRUE(mode_uses_imu("auto", stereo_imu));
+  EXPECT_FALSE(mode_uses_imu("rgbd", rgbd_imu));
+  EXPECT_TRUE(mode_uses_imu("rgbd-imu", rgbd_imu));
+  EXPECT_FALSE(mode_uses_imu("stereo", stereo_imu));
+  EXPECT_TRUE(mode_uses_imu("stereo-imu", stereo_imu));
+  EXPECT_NE(mode_error("rgbd-imu", rgbd).find("no IMU"), std::string::npos);
+  EXPECT_NE(mode_error("stereo", rgbd_imu).find("--mode stereo"), std::string::npos);
+  EXPECT_NE(mode_error("rgbd", stereo_imu).find("the dataset is stereo"), std::string::npos);
+  EXPECT_NE(mode_error("mono", rgbd).find("unknown mode 'mono'"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace kestrel::pipeline
+
+namespace kestrel::pipeline {
+namespace {
+
+std::vector<RgbdFrame> frames_of(const std::string& dir, std::size_t n) {
+  auto source = io::open_dataset("kestrel:" + dir);
+  std::vector<RgbdFrame> out;
+  while (auto m = source->next()) {
+    if (auto* f = std::get_if<RgbdFrame>(&*m)) out.push_back(*f);
+    if (out.size() == n) break;
+  }
+  return out;
+}
+
+TEST(Bridging, ALostTrackRestartsAtThePredictionWhereTheMapHasNothing) {
+  // Office frames build a map; then the camera "turns" into a place the map has never seen
+  // (frames of another world). With a prediction the tracker restarts its local map there
+  // after bridge_after_lost_frames; without one it stays lost.
+  const std::string cafe = (test::temp_dir("bridging") / "cafe").string();
+  {
+    sim::ScenarioOverrides over;
+    over.duration = 0.5;
+    over.no_movers = true;
+    sim::Simulator sim(sim::load_scenario("cafe", over));
+    sim::record_sequence(sim, cafe);
+  }
+  const auto office = frames_of(office_dir(), 10);
+  const auto elsewhere = frames_of(cafe, 10);
+  const Calibration calib = io::open_dataset("kestrel:" + office_dir())->calibration();
+  for (const bool with_prediction : {true, false}) {
+    tracking::Tracker tracker(calib.camera);
+    for (const RgbdFrame& f : office) {
+      ASSERT_NE(tracker.track(f).state, tracking::TrackingState::kLost);
+    }
+    const SE3 guess = tracker.last_pose();
+    int lost = 0;
+    bool bridged = false;
+    for (const RgbdFrame& f : elsewhere) {
+      RgbdFrame g = f;
+      g.t = office.back().t + (f.t - elsewhere.front().t) + 33'333'333;
+      const auto r = with_prediction ? tracker.track(g, guess) : tracker.track(g);
+      ASSERT_TRUE(r.T_w_c.is_finite());
+      if (r.bridged) {
+        bridged = true;
+        EXPECT_LT((r.T_w_c.translation() - guess.translation()).norm(), 1e-9);
+        break;
+      }
+      if (r.state == tracking::TrackingState::kLost) ++lost;
+    }
+    if (with_prediction) {
+      EXPECT_TRUE(bridged);
+      EXPECT_EQ(lost, tracking::TrackerOptions{}.bridge_after_lost_frames);
+      EXPECT_EQ(tracker.state(), tracking::TrackingState::kOk);
+    } else {
+      EXPECT_FALSE(bridged);
+      EXPECT_EQ(tracker.state(), tracking::TrackingState::kLost);
+    }
   }
 }
 
