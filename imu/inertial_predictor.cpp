@@ -78,6 +78,28 @@ bool fuse(Vec3& x, Mat3& P, const Vec3& z, const Mat3& C) {
 
 }  // namespace
 
+std::vector<InertialPredictor::WindowTerm> InertialPredictor::window_terms(
+    std::size_t first, const std::vector<ImuSample>& samples, Preintegration* pre_out) const {
+  // One pre-integration pass from fix `first`, read at every later fix.
+  const Fix& j = fixes_[first];
+  const Mat3 R_j = j.T_w_b.rotation();
+  const Vec3& g = options_.gravity;
+  Preintegration pre(bias_, options_.noise);
+  std::vector<WindowTerm> out;
+  Timestamp t_prev = j.t;
+  for (std::size_t m = first; m < fixes_.size(); ++m) {
+    if (m > first) pre.integrate(samples, t_prev, fixes_[m].t);
+    t_prev = fixes_[m].t;
+    const double tau = pre.dt();
+    out.push_back({tau,
+                   fixes_[m].T_w_b.translation() - j.T_w_b.translation() - 0.5 * g * tau * tau -
+                       R_j * pre.delta_p(),
+                   pre.dp_dba()});
+  }
+  if (pre_out) *pre_out = pre;
+  return out;
+}
+
 bool InertialPredictor::update_biases() {
   // The fixes of the window that just filled (they start at the previous update).
   std::size_t first = 0;
@@ -132,21 +154,13 @@ bool InertialPredictor::update_biases() {
   Mat9 H = Mat9::Zero();
   Vec9 b = Vec9::Zero();
   const Mat3 R_j = j.T_w_b.rotation();
-  const Vec3& g = options_.gravity;
-  Preintegration pre(bias_, options_.noise);
-  Timestamp t_prev = j.t;
-  for (std::size_t m = first; m < fixes_.size(); ++m) {
-    if (m > first) pre.integrate(s, t_prev, fixes_[m].t);
-    t_prev = fixes_[m].t;
-    const double tau = pre.dt();
-    const Vec3 y = fixes_[m].T_w_b.translation() - j.T_w_b.translation() - 0.5 * g * tau * tau -
-                   R_j * pre.delta_p();
+  for (const WindowTerm& w : window_terms(first, s, nullptr)) {
     Eigen::Matrix<double, 3, 9> A;
     A.leftCols<3>() = Mat3::Identity();
-    A.middleCols<3>(3) = tau * Mat3::Identity();
-    A.rightCols<3>() = R_j * pre.dp_dba();
+    A.middleCols<3>(3) = w.tau * Mat3::Identity();
+    A.rightCols<3>() = R_j * w.dp_dba;
     H += w_fix * A.transpose() * A;
-    b += w_fix * A.transpose() * y;
+    b += w_fix * A.transpose() * w.y;
   }
   const Eigen::LDLT<Mat9> ldlt(H);
   if (ldlt.info() != Eigen::Success) return false;
@@ -172,20 +186,14 @@ void InertialPredictor::update_velocity() {
   const Mat3 R_j = j.T_w_b.rotation();
   const Vec3& g = options_.gravity;
   Preintegration pre(bias_, options_.noise);
-  Timestamp t_prev = j.t;
   double n = 0.0, sum_t = 0.0, sum_tt = 0.0;
   Vec3 sum_y = Vec3::Zero(), sum_ty = Vec3::Zero();
-  for (std::size_t m = first; m < fixes_.size(); ++m) {
-    if (m > first) pre.integrate(s, t_prev, fixes_[m].t);
-    t_prev = fixes_[m].t;
-    const double tau = pre.dt();
-    const Vec3 y = fixes_[m].T_w_b.translation() - j.T_w_b.translation() - 0.5 * g * tau * tau -
-                   R_j * pre.delta_p();
+  for (const WindowTerm& w : window_terms(first, s, &pre)) {
     n += 1.0;
-    sum_t += tau;
-    sum_tt += tau * tau;
-    sum_y += y;
-    sum_ty += tau * y;
+    sum_t += w.tau;
+    sum_tt += w.tau * w.tau;
+    sum_y += w.y;
+    sum_ty += w.tau * w.y;
   }
   const double det = n * sum_tt - sum_t * sum_t;
   if (det <= 0.0) return;

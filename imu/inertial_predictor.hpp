@@ -25,6 +25,8 @@
 
 namespace kestrel::imu {
 
+class Preintegration;
+
 struct InertialPredictorOptions {
   ImuNoise noise;
   Vec3 gravity = gravity_vector();
@@ -82,6 +84,16 @@ class InertialPredictor {
     SE3 T_w_b;
   };
   std::vector<ImuSample> samples_between(Timestamp t0, Timestamp t1) const;
+  // For every fix m from `first` on, against fix j = first with the IMU between them:
+  // y_m = p_m - p_j - ½ g τ² - R_j ΔP̂_jm (τ = t_m - t_j) and ∂ΔP_jm/∂b_a. `pre_out` gets the
+  // pre-integration from j to the newest fix.
+  struct WindowTerm {
+    double tau;
+    Vec3 y;
+    Mat3 dp_dba;
+  };
+  std::vector<WindowTerm> window_terms(std::size_t first, const std::vector<ImuSample>& samples,
+                                       Preintegration* pre_out) const;
   bool update_biases();  // false: no update (too few fixes, no IMU, a failed solve)
   void update_velocity();
 

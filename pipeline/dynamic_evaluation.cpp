@@ -26,20 +26,6 @@ Image gray_of(const Image& color) {
   return io::to_image(g);
 }
 
-// As the System computes it: the gyro integrated between the two stamps, in the camera frame.
-std::optional<Mat3> gyro_rotation(const ImuBuffer& imu, Timestamp t0, Timestamp t1,
-                                  const SE3& T_body_camera) {
-  const std::vector<ImuSample> s = imu.between(t0, t1);
-  if (s.size() < 2) return std::nullopt;
-  SO3 R_prev_cur_body;
-  for (std::size_t i = 1; i < s.size(); ++i) {
-    const double dt = static_cast<double>(s[i].t - s[i - 1].t) * 1e-9;
-    R_prev_cur_body = R_prev_cur_body * SO3::exp(0.5 * (s[i].gyro + s[i - 1].gyro) * dt);
-  }
-  const Mat3 R_bc = T_body_camera.rotation();
-  return (R_bc.transpose() * R_prev_cur_body.matrix() * R_bc).transpose();
-}
-
 }  // namespace
 
 DynamicEvalScene load_dynamic_eval_scene(const std::string& dir,

@@ -44,4 +44,18 @@ void ImuBuffer::drop_before(Timestamp t) {
   while (samples_.size() > 1 && samples_[1].t <= t) samples_.pop_front();
 }
 
+std::optional<Mat3> gyro_rotation(const ImuBuffer& imu, Timestamp t0, Timestamp t1,
+                                  const SE3& T_body_camera) {
+  const std::vector<ImuSample> s = imu.between(t0, t1);
+  if (s.size() < 2) return std::nullopt;
+  SO3 R_prev_cur_body;
+  for (std::size_t i = 1; i < s.size(); ++i) {
+    const double dt = static_cast<double>(s[i].t - s[i - 1].t) * 1e-9;
+    R_prev_cur_body = R_prev_cur_body * SO3::exp(0.5 * (s[i].gyro + s[i - 1].gyro) * dt);
+  }
+  const Mat3 R_bc = T_body_camera.rotation();
+  const Mat3 R_prev_cur_cam = R_bc.transpose() * R_prev_cur_body.matrix() * R_bc;
+  return R_prev_cur_cam.transpose();
+}
+
 }  // namespace kestrel::pipeline

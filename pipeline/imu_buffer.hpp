@@ -5,7 +5,10 @@
 #include <deque>
 #include <vector>
 
+#include <optional>
+
 #include "core/imu.hpp"
+#include "core/se3.hpp"
 
 namespace kestrel::pipeline {
 
@@ -31,5 +34,11 @@ class ImuBuffer {
   std::deque<ImuSample> samples_;
   std::size_t rejected_ = 0;
 };
+
+// Camera rotation between two frame stamps from the gyro (body frame), expressed in the camera
+// frame: R_cur_prev maps directions of the previous camera into the current one (what the
+// dynamic filter's ego-motion model takes). Nothing when the buffer does not span both.
+std::optional<Mat3> gyro_rotation(const ImuBuffer& imu, Timestamp t0, Timestamp t1,
+                                  const SE3& T_body_camera);
 
 }  // namespace kestrel::pipeline

@@ -67,22 +67,6 @@ Image to_gray(const Image& color) {
   return io::to_image(gray);
 }
 
-// Camera rotation between two frame stamps from the gyro (body frame), expressed in the camera
-// frame: R_cur_prev maps directions of the previous camera into the current one.
-std::optional<Mat3> gyro_rotation(const ImuBuffer& imu, Timestamp t0, Timestamp t1,
-                                  const SE3& T_body_camera) {
-  const std::vector<ImuSample> s = imu.between(t0, t1);
-  if (s.size() < 2) return std::nullopt;
-  SO3 R_prev_cur_body;
-  for (std::size_t i = 1; i < s.size(); ++i) {
-    const double dt = static_cast<double>(s[i].t - s[i - 1].t) * 1e-9;
-    R_prev_cur_body = R_prev_cur_body * SO3::exp(0.5 * (s[i].gyro + s[i - 1].gyro) * dt);
-  }
-  const Mat3 R_bc = T_body_camera.rotation();
-  const Mat3 R_prev_cur_cam = R_bc.transpose() * R_prev_cur_body.matrix() * R_bc;
-  return R_prev_cur_cam.transpose();
-}
-
 }  // namespace
 
 const char* to_string(PoseSource s) {

@@ -135,7 +135,9 @@ TEST(InertialTracking, WithoutTheImuTheBlackoutIsLost) {
   EXPECT_EQ(r.counters.at("frames.inertial_only"), 0u);
   EXPECT_LE(r.trajectory.size() + 12, r.reports.size());
   for (const FrameReport& f : r.reports) {
-    if (blacked_out(f.t)) EXPECT_EQ(f.source, PoseSource::kNone);
+    if (blacked_out(f.t)) {
+      EXPECT_EQ(f.source, PoseSource::kNone);
+    }
   }
 }
 
