@@ -154,13 +154,19 @@ std::vector<double> time_detector(kestrel::detect::Detector& detector, const std
   return ms;
 }
 
-std::string default_json_path(bool quick) {
+// bench/results/{quick,full}-DATE.json for every area; with --only, the areas' names replace
+// "full" (quick-dynamic-..., dynamic+imu-...), so a partial run never passes for a full one.
+std::string default_json_path(bool quick, const std::vector<std::string>& only) {
   const std::time_t t = std::time(nullptr);
   std::tm tm{};
   gmtime_r(&t, &tm);
   char buf[64];
   std::strftime(buf, sizeof buf, "%Y%m%d-%H%M%S", &tm);
-  return std::string("bench/results/") + (quick ? "quick-" : "full-") + buf + ".json";
+  std::string what;
+  for (const std::string& a : only) what += (what.empty() ? "" : "+") + a;
+  std::string name =
+      quick ? (what.empty() ? "quick" : "quick-" + what) : (what.empty() ? "full" : what);
+  return "bench/results/" + name + "-" + buf + ".json";
 }
 
 void run_bench(const BenchFlags& flags) {
@@ -388,7 +394,7 @@ void run_bench(const BenchFlags& flags) {
   }
 
   const std::string out =
-      flags.json_path.empty() ? default_json_path(flags.quick) : flags.json_path;
+      flags.json_path.empty() ? default_json_path(flags.quick, flags.only) : flags.json_path;
   if (const fs::path parent = fs::path(out).parent_path(); !parent.empty()) {
     fs::create_directories(parent);
   }
@@ -403,8 +409,9 @@ void setup_bench(CLI::App& app) {
   auto* cmd = app.add_subcommand(
       "bench", "Benchmark accuracy, dynamic removal and speed on the synthetic scenarios");
   cmd->add_flag("--quick", flags->quick, "short scenes, fewer of them (under 5 minutes)");
-  cmd->add_option("--json", flags->json_path,
-                  "results file (default bench/results/{quick,full}-DATE.json)");
+  cmd->add_option(
+      "--json", flags->json_path,
+      "results file (default bench/results/{quick,full}-DATE.json, the areas' names for --only)");
   cmd->add_option("--work", flags->work_dir, "where the rendered scenes go (kept)");
   cmd->add_flag("--keep", flags->keep, "keep the rendered scenes in the temporary folder");
   cmd->add_flag("--tiny", flags->tiny, "the smallest inputs (seconds; for tests, not figures)");
