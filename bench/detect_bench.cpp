@@ -1,9 +1,17 @@
 // Detector speed: ms per frame on one thread (the pipeline gives detection its own core).
-// YOLO-Fastest v1.1 and XL at 320 and 416 through YoloFastest (pre-processing, network, NMS),
-// plus the OpenCV DNN variants tried for speed: the network alone with and without layer
-// fusion, and OpenCV's int8 path (Net::quantize calibrated on the shared sample photos).
+// Every benchmark times each iteration itself and reports the median (p50_ms) and the fastest
+// (min_ms) over at least 200 iterations: on a shared machine the mean mostly measures the
+// neighbours. Run it alone (flock /tmp/kestrel-build.lock build/bench/bench_detect).
+//  - BM_YoloFastest: YoloFastest::detect (pre-processing, network, decoding, NMS) on the TUM
+//    frame, v1.1 and XL at 320 and 416 and the body model, with either backend.
+//  - BM_Interleaved: v1.1@320 with the two backends alternating frame by frame, so that both
+//    medians see the same machine load: the fairest comparison on a busy machine.
+//  - BM_Forward: the network alone, v1.1@320: OpenCV DNN fused (its default), without fusion,
+//    OpenCV's int8 path (Net::quantize, calibrated on the shared sample photos), and oneDNN.
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
+#include <chrono>
 #include <filesystem>
 #include <opencv2/core/utility.hpp>
 #include <opencv2/dnn.hpp>
@@ -11,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "detect/darknet_onednn.hpp"
 #include "detect/yolo_fastest.hpp"
 #include "io/image_io.hpp"
 
@@ -18,6 +27,7 @@ namespace {
 
 using namespace kestrel;
 namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
 
 fs::path shared_data(const std::string& rel) {
   // find_models_dir() is <shared>/models/yolo-fastest.
@@ -25,66 +35,137 @@ fs::path shared_data(const std::string& rel) {
 }
 
 const std::string kFrame = "tum_fr3/frame/rgb_1341846313.592026.png";
+constexpr int kIterations = 300;
+
+double ms_since(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+void report(benchmark::State& state, std::vector<double> ms, const std::string& prefix = "") {
+  if (ms.empty()) return;
+  std::sort(ms.begin(), ms.end());
+  state.counters[prefix + "p50_ms"] = ms[ms.size() / 2];
+  state.counters[prefix + "min_ms"] = ms.front();
+  state.counters[prefix + "p90_ms"] = ms[ms.size() * 9 / 10];
+}
+
+detect::YoloFastestOptions options(int model, int size, int backend) {
+  detect::YoloFastestOptions o;
+  o.model = static_cast<detect::YoloModel>(model);
+  o.input_size = size;
+  o.backend = static_cast<detect::YoloBackend>(backend);
+  o.num_threads = 1;
+  return o;
+}
 
 void BM_YoloFastest(benchmark::State& state) {
-  detect::YoloFastestOptions o;
-  o.model = static_cast<detect::YoloModel>(state.range(0));
-  o.input_size = static_cast<int>(state.range(1));
-  o.num_threads = 1;
+  const auto o = options(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)),
+                         static_cast<int>(state.range(2)));
   detect::YoloFastest detector(detect::find_models_dir(), o);
   const Image image = io::load_image(shared_data(kFrame).string(), io::ImageKind::kColor);
   std::size_t boxes = 0;
+  std::vector<double> ms;
   for (auto _ : state) {
+    const auto t0 = Clock::now();
     boxes = detector.detect(image, 0).boxes.size();
+    ms.push_back(ms_since(t0));
     benchmark::DoNotOptimize(boxes);
   }
-  state.SetLabel(detector.name());
+  state.SetLabel(detector.name() + " " + detect::to_string(o.backend));
   state.counters["boxes"] = static_cast<double>(boxes);
+  report(state, ms);
 }
-BENCHMARK(BM_YoloFastest)
-    ->ArgNames({"model", "size"})
-    ->Args({static_cast<int>(detect::YoloModel::kV11), 320})
-    ->Args({static_cast<int>(detect::YoloModel::kV11), 416})
-    ->Args({static_cast<int>(detect::YoloModel::kV11Xl), 320})
-    ->Args({static_cast<int>(detect::YoloModel::kV11Xl), 416})
-    ->Args({static_cast<int>(detect::YoloModel::kBody), 320})
-    ->Unit(benchmark::kMillisecond)
-    ->MinTime(2.0);
+void YoloArgs(benchmark::internal::Benchmark* b) {
+  b->ArgNames({"model", "size", "backend"});
+  for (int backend : {static_cast<int>(detect::YoloBackend::kOneDnn),
+                      static_cast<int>(detect::YoloBackend::kOpenCv)}) {
+    b->Args({static_cast<int>(detect::YoloModel::kV11), 320, backend});
+    b->Args({static_cast<int>(detect::YoloModel::kV11), 416, backend});
+    b->Args({static_cast<int>(detect::YoloModel::kV11Xl), 320, backend});
+    b->Args({static_cast<int>(detect::YoloModel::kV11Xl), 416, backend});
+    b->Args({static_cast<int>(detect::YoloModel::kBody), 320, backend});
+  }
+}
+BENCHMARK(BM_YoloFastest)->Apply(YoloArgs)->Unit(benchmark::kMillisecond)->Iterations(kIterations);
+
+void BM_Interleaved(benchmark::State& state) {
+  const int v11 = static_cast<int>(detect::YoloModel::kV11);
+  detect::YoloFastest onednn(detect::find_models_dir(),
+                             options(v11, 320, static_cast<int>(detect::YoloBackend::kOneDnn)));
+  detect::YoloFastest opencv(detect::find_models_dir(),
+                             options(v11, 320, static_cast<int>(detect::YoloBackend::kOpenCv)));
+  const Image image = io::load_image(shared_data(kFrame).string(), io::ImageKind::kColor);
+  std::vector<double> a, b;
+  for (auto _ : state) {
+    auto t0 = Clock::now();
+    benchmark::DoNotOptimize(onednn.detect(image, 0).boxes.size());
+    a.push_back(ms_since(t0));
+    t0 = Clock::now();
+    benchmark::DoNotOptimize(opencv.detect(image, 0).boxes.size());
+    b.push_back(ms_since(t0));
+  }
+  state.SetLabel("v1.1@320 detect(), oneDNN and OpenCV alternating");
+  report(state, a, "onednn_");
+  report(state, b, "opencv_");
+}
+BENCHMARK(BM_Interleaved)->Unit(benchmark::kMillisecond)->Iterations(kIterations);
 
 cv::Mat input_blob(const cv::Mat& bgr, int size) {
   return cv::dnn::blobFromImage(bgr, 1.0 / 255.0, cv::Size(size, size), cv::Scalar(), true, false);
 }
 
-// Raw OpenCV DNN forward pass of v1.1 at 320: variant 0 = fused (the default), 1 = without
-// fusion, 2 = int8.
-void BM_OpenCvVariant(benchmark::State& state) {
+// The network alone, v1.1 at 320: variant 0 = OpenCV fused (its default), 1 = OpenCV without
+// fusion, 2 = OpenCV int8, 3 = oneDNN (DarknetOneDnn).
+void BM_Forward(benchmark::State& state) {
   cv::setNumThreads(1);
   const detect::YoloModelFiles f =
       detect::yolo_model_files(detect::find_models_dir(), detect::YoloModel::kV11);
-  cv::dnn::Net net = cv::dnn::readNetFromDarknet(f.cfg, f.weights);
   const int size = 320;
   const cv::Mat blob = input_blob(cv::imread(shared_data(kFrame).string()), size);
-  if (state.range(0) == 1) net.enableFusion(false);
-  if (state.range(0) == 2) {
-    std::vector<cv::Mat> calib;
-    for (const char* name :
-         {"person.jpg", "dog.jpg", "horses.jpg", "000004.jpg", "000139.jpg", "000230.jpg"}) {
-      calib.push_back(cv::imread(shared_data(std::string("images/") + name).string()));
+  std::vector<double> ms;
+  if (state.range(0) == 3) {
+    detect::DarknetOneDnn net(f.cfg, f.weights, size, size);
+    float* in = net.input();
+    for (int c = 0; c < 3; ++c) {
+      for (int y = 0; y < size; ++y) {
+        for (int x = 0; x < size; ++x) in[(y * size + x) * 3 + c] = blob.ptr<float>(0, c, y)[x];
+      }
     }
-    net = net.quantize(cv::dnn::blobFromImages(calib, 1.0 / 255.0, cv::Size(size, size),
-                                               cv::Scalar(), true, false),
-                       CV_32F, CV_32F);
-  }
-  const std::vector<std::string> outs = net.getUnconnectedOutLayersNames();
-  std::vector<cv::Mat> result;
-  for (auto _ : state) {
+    for (auto _ : state) {
+      const auto t0 = Clock::now();
+      benchmark::DoNotOptimize(net.forward(0.25f).data());
+      ms.push_back(ms_since(t0));
+    }
+  } else {
+    cv::dnn::Net net = cv::dnn::readNetFromDarknet(f.cfg, f.weights);
+    if (state.range(0) == 1) net.enableFusion(false);
+    if (state.range(0) == 2) {
+      std::vector<cv::Mat> calib;
+      for (const char* name :
+           {"person.jpg", "dog.jpg", "horses.jpg", "000004.jpg", "000139.jpg", "000230.jpg"}) {
+        calib.push_back(cv::imread(shared_data(std::string("images/") + name).string()));
+      }
+      net = net.quantize(cv::dnn::blobFromImages(calib, 1.0 / 255.0, cv::Size(size, size),
+                                                 cv::Scalar(), true, false),
+                         CV_32F, CV_32F);
+    }
+    const std::vector<std::string> outs = net.getUnconnectedOutLayersNames();
+    std::vector<cv::Mat> result;
     net.setInput(blob);
-    net.forward(result, outs);
-    benchmark::DoNotOptimize(result.data());
+    net.forward(result, outs);  // allocation and fusion happen on the first pass
+    for (auto _ : state) {
+      const auto t0 = Clock::now();
+      net.setInput(blob);
+      net.forward(result, outs);
+      ms.push_back(ms_since(t0));
+      benchmark::DoNotOptimize(result.data());
+    }
   }
-  static const char* kNames[] = {"fp32 fused", "fp32 no fusion", "int8 (Net::quantize)"};
+  static const char* kNames[] = {"OpenCV fp32 fused", "OpenCV fp32 no fusion",
+                                 "OpenCV int8 (Net::quantize)", "oneDNN fp32"};
   state.SetLabel(kNames[state.range(0)]);
+  report(state, ms);
 }
-BENCHMARK(BM_OpenCvVariant)->DenseRange(0, 2)->Unit(benchmark::kMillisecond)->MinTime(2.0);
+BENCHMARK(BM_Forward)->DenseRange(0, 3)->Unit(benchmark::kMillisecond)->Iterations(kIterations);
 
 }  // namespace

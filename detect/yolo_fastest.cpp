@@ -11,6 +11,7 @@
 
 #include "core/error.hpp"
 #include "detect/class_names.hpp"
+#include "detect/darknet_onednn.hpp"
 #include "detect/nms.hpp"
 #include "io/cv_image.hpp"
 
@@ -33,6 +34,22 @@ std::string to_string(YoloModel model) {
       return "xl";
     case YoloModel::kBody:
       return "body";
+  }
+  return "?";
+}
+
+std::optional<YoloBackend> parse_yolo_backend(std::string_view text) {
+  if (text == "onednn") return YoloBackend::kOneDnn;
+  if (text == "opencv") return YoloBackend::kOpenCv;
+  return std::nullopt;
+}
+
+std::string to_string(YoloBackend backend) {
+  switch (backend) {
+    case YoloBackend::kOneDnn:
+      return "onednn";
+    case YoloBackend::kOpenCv:
+      return "opencv";
   }
   return "?";
 }
@@ -82,11 +99,12 @@ std::string find_models_dir() {
 }
 
 struct YoloFastest::Impl {
-  cv::dnn::Net net;
+  std::unique_ptr<DarknetOneDnn> onednn;  // the oneDNN backend, or
+  cv::dnn::Net net;                       // the OpenCV one
   std::vector<std::string> output_names;
   std::vector<std::string> class_names;
   std::string model_name;
-  cv::Mat blob;  // reused between frames
+  cv::Mat blob;  // OpenCV: the NCHW input, reused between frames
   cv::Mat colour, resized;
   std::vector<cv::Mat> outputs;
   std::vector<cv::Mat> channels;
@@ -105,9 +123,39 @@ YoloFastest::YoloFastest(const std::string& models_dir, const YoloFastestOptions
   if (!(options.nms_threshold > 0.0f && options.nms_threshold <= 1.0f)) {
     throw Error::at(where, 0, "nms_threshold", "must be in (0, 1]");
   }
+  if (options.num_threads < 0) throw Error::at(where, 0, "num_threads", "must not be negative");
+  if (options.backend != YoloBackend::kOneDnn && options.backend != YoloBackend::kOpenCv) {
+    throw Error::at(where, 0, "backend", "unknown backend");
+  }
   const YoloModelFiles files = yolo_model_files(models_dir, options.model);
   impl_->class_names = read_class_names(files.names);
+  impl_->model_name =
+      "yolo-fastest-" + to_string(options.model) + "@" + std::to_string(options.input_size);
+  const int n = options.input_size;
+  // Pre-processing runs through OpenCV with either backend.
   if (options.num_threads > 0) cv::setNumThreads(options.num_threads);
+  if (options.backend == YoloBackend::kOneDnn) {
+    // The network takes the resized 8-bit BGR pixels as they are: the 1/255 and the BGR to RGB
+    // swap are folded into its first layer.
+    DarknetOneDnnOptions dn;
+    dn.threads = options.num_threads;
+    dn.input_scale = 1.0f / 255.0f;
+    dn.swap_rb = true;
+    impl_->onednn = std::make_unique<DarknetOneDnn>(files.cfg, files.weights, n, n, dn);
+    if (impl_->onednn->channels() != 3) {
+      throw Error::at(files.cfg, 0, "channels", "YOLO-Fastest takes 3-channel input");
+    }
+    if (impl_->onednn->classes() != static_cast<int>(impl_->class_names.size())) {
+      throw Error::at(files.names, 0, "",
+                      std::to_string(impl_->class_names.size()) + " class names for a model of " +
+                          std::to_string(impl_->onednn->classes()) + " classes (cfg " + files.cfg +
+                          ")");
+    }
+    // The first pass touches every buffer; do it here, not on frame 1.
+    std::fill_n(impl_->onednn->input(), static_cast<std::size_t>(3 * n * n), 127.5f);
+    impl_->onednn->forward(1.0f);
+    return;
+  }
   try {
     impl_->net = cv::dnn::readNetFromDarknet(files.cfg, files.weights);
   } catch (const cv::Exception& e) {
@@ -120,10 +168,7 @@ YoloFastest::YoloFastest(const std::string& models_dir, const YoloFastestOptions
   impl_->net.setPreferableBackend(cv::dnn::DNN_BACKEND_OPENCV);
   impl_->net.setPreferableTarget(cv::dnn::DNN_TARGET_CPU);
   impl_->output_names = impl_->net.getUnconnectedOutLayersNames();
-  impl_->model_name =
-      "yolo-fastest-" + to_string(options.model) + "@" + std::to_string(options.input_size);
   // The first forward pass allocates and fuses layers (tens of ms); do it here, not on frame 1.
-  const int n = options.input_size;
   const int shape[] = {1, 3, n, n};
   impl_->blob.create(4, shape, CV_32F);
   impl_->blob.setTo(cv::Scalar(0.5));
@@ -155,48 +200,65 @@ DetectionSet YoloFastest::detect(const Image& image, Timestamp t) {
   const int n = options_.input_size;
   const Letterbox lb = Letterbox::make(image.width, image.height, n, n, options_.resize);
 
-  // The blob is built by hand rather than with blobFromImage so that the letterbox padding is
-  // Darknet's exact 0.5 (an 8-bit canvas can hold only 127 or 128).
   cv::resize(m.colour, m.resized, cv::Size(lb.resized_width, lb.resized_height), 0, 0,
              cv::INTER_LINEAR);
-  if (lb.resized_width != n || lb.resized_height != n) m.blob.setTo(cv::Scalar(0.5));
-  cv::split(m.resized, m.channels);
-  const cv::Rect roi(lb.pad_x, lb.pad_y, lb.resized_width, lb.resized_height);
-  for (int c = 0; c < 3; ++c) {
-    cv::Mat plane(n, n, CV_32F, m.blob.ptr<float>(0, c));
-    // The network wants RGB: plane 0 is the image's channel 2.
-    m.channels[static_cast<std::size_t>(2 - c)].convertTo(plane(roi), CV_32F, 1.0 / 255.0);
-  }
-  m.net.setInput(m.blob);
-  m.net.forward(m.outputs, m.output_names);
-
-  // Region rows: cx, cy, w, h (fractions of the network input), objectness, then one score per
-  // class (objectness x probability).
   std::vector<Detection> candidates;
   const int num_classes = static_cast<int>(m.class_names.size());
-  for (const cv::Mat& o : m.outputs) {
-    if (o.dims != 2 || o.cols != 5 + num_classes) {
-      throw std::runtime_error("YoloFastest: output has " + std::to_string(o.cols) +
-                               " columns, expected " + std::to_string(5 + num_classes));
+  // Region rows: cx, cy, w, h (fractions of the network input), objectness, then one score per
+  // class (objectness x probability).
+  auto add_row = [&](const float* row) {
+    // A class score is objectness x probability, never above the objectness.
+    if (row[4] < options_.conf_threshold) return;
+    const float* scores = row + 5;
+    const int best = static_cast<int>(std::max_element(scores, scores + num_classes) - scores);
+    const float score = scores[best];
+    if (score < options_.conf_threshold || score <= 0.0f) return;
+    const double cx = row[0] * n, cy = row[1] * n, w = row[2] * n, h = row[3] * n;
+    Detection d;
+    d.label = m.class_names[static_cast<std::size_t>(best)];
+    d.class_id = coco_class_id(d.label);
+    d.score = score;
+    const double W = image.width, H = image.height;
+    d.x_min = static_cast<float>(std::clamp(lb.to_image_x(cx - 0.5 * w), 0.0, W));
+    d.x_max = static_cast<float>(std::clamp(lb.to_image_x(cx + 0.5 * w), 0.0, W));
+    d.y_min = static_cast<float>(std::clamp(lb.to_image_y(cy - 0.5 * h), 0.0, H));
+    d.y_max = static_cast<float>(std::clamp(lb.to_image_y(cy + 0.5 * h), 0.0, H));
+    if (d.width() <= 0 || d.height() <= 0) return;
+    candidates.push_back(std::move(d));
+  };
+
+  if (m.onednn) {
+    // NHWC BGR in [0, 255] (see the constructor); the letterbox padding is Darknet's exact 0.5.
+    cv::Mat in(n, 3 * n, CV_32F, m.onednn->input());
+    if (lb.resized_width != n || lb.resized_height != n) in.setTo(cv::Scalar(127.5));
+    m.resized.reshape(1).convertTo(
+        in(cv::Rect(3 * lb.pad_x, lb.pad_y, 3 * lb.resized_width, lb.resized_height)), CV_32F);
+    for (const YoloHeadRows& head : m.onednn->forward(options_.conf_threshold)) {
+      if (head.cols != 5 + num_classes) {
+        throw std::runtime_error("YoloFastest: output has " + std::to_string(head.cols) +
+                                 " columns, expected " + std::to_string(5 + num_classes));
+      }
+      for (int r = 0; r < head.rows; ++r) add_row(head.row(r));
     }
-    for (int r = 0; r < o.rows; ++r) {
-      const float* row = o.ptr<float>(r);
-      const float* scores = row + 5;
-      const int best = static_cast<int>(std::max_element(scores, scores + num_classes) - scores);
-      const float score = scores[best];
-      if (score < options_.conf_threshold || score <= 0.0f) continue;
-      const double cx = row[0] * n, cy = row[1] * n, w = row[2] * n, h = row[3] * n;
-      Detection d;
-      d.label = m.class_names[static_cast<std::size_t>(best)];
-      d.class_id = coco_class_id(d.label);
-      d.score = score;
-      const double W = image.width, H = image.height;
-      d.x_min = static_cast<float>(std::clamp(lb.to_image_x(cx - 0.5 * w), 0.0, W));
-      d.x_max = static_cast<float>(std::clamp(lb.to_image_x(cx + 0.5 * w), 0.0, W));
-      d.y_min = static_cast<float>(std::clamp(lb.to_image_y(cy - 0.5 * h), 0.0, H));
-      d.y_max = static_cast<float>(std::clamp(lb.to_image_y(cy + 0.5 * h), 0.0, H));
-      if (d.width() <= 0 || d.height() <= 0) continue;
-      candidates.push_back(std::move(d));
+  } else {
+    // The blob is built by hand rather than with blobFromImage so that the letterbox padding is
+    // Darknet's exact 0.5 (an 8-bit canvas can hold only 127 or 128).
+    if (lb.resized_width != n || lb.resized_height != n) m.blob.setTo(cv::Scalar(0.5));
+    cv::split(m.resized, m.channels);
+    const cv::Rect roi(lb.pad_x, lb.pad_y, lb.resized_width, lb.resized_height);
+    for (int c = 0; c < 3; ++c) {
+      cv::Mat plane(n, n, CV_32F, m.blob.ptr<float>(0, c));
+      // The network wants RGB: plane 0 is the image's channel 2.
+      m.channels[static_cast<std::size_t>(2 - c)].convertTo(plane(roi), CV_32F, 1.0 / 255.0);
+    }
+    m.net.setInput(m.blob);
+    m.net.forward(m.outputs, m.output_names);
+    for (const cv::Mat& o : m.outputs) {
+      if (o.dims != 2 || o.cols != 5 + num_classes) {
+        throw std::runtime_error("YoloFastest: output has " + std::to_string(o.cols) +
+                                 " columns, expected " + std::to_string(5 + num_classes));
+      }
+      for (int r = 0; r < o.rows; ++r) add_row(o.ptr<float>(r));
     }
   }
   out.boxes = non_max_suppression(candidates, options_.nms_threshold);
