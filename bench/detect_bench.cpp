@@ -1,7 +1,9 @@
 // Detector speed: ms per frame on one thread (the pipeline gives detection its own core).
-// Every benchmark times each iteration itself and reports the median (p50_ms) and the fastest
-// (min_ms) over at least 200 iterations: on a shared machine the mean mostly measures the
-// neighbours. Run it alone (flock /tmp/kestrel-build.lock build/bench/bench_detect).
+// Every benchmark times each iteration itself and reports the median (p50_ms), the fastest
+// (min_ms) and p90 over 300 iterations, in wall time and in the thread's CPU time (cpu_p50_ms:
+// the time it ran, without the time other processes had the core): on a shared machine the mean
+// mostly measures the neighbours. Run it alone (flock /tmp/kestrel-build.lock
+// build/bench/bench_detect).
 //  - BM_YoloFastest: YoloFastest::detect (pre-processing, network, decoding, NMS) on the TUM
 //    frame, v1.1 and XL at 320 and 416 and the body model, with either backend.
 //  - BM_Interleaved: v1.1@320 with the two backends alternating frame by frame, so that both
@@ -12,6 +14,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <ctime>
 #include <filesystem>
 #include <opencv2/core/utility.hpp>
 #include <opencv2/dnn.hpp>
@@ -37,16 +40,35 @@ fs::path shared_data(const std::string& rel) {
 const std::string kFrame = "tum_fr3/frame/rgb_1341846313.592026.png";
 constexpr int kIterations = 300;
 
-double ms_since(Clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+double thread_cpu_ms() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) * 1e3 + static_cast<double>(ts.tv_nsec) * 1e-6;
 }
 
-void report(benchmark::State& state, std::vector<double> ms, const std::string& prefix = "") {
-  if (ms.empty()) return;
-  std::sort(ms.begin(), ms.end());
-  state.counters[prefix + "p50_ms"] = ms[ms.size() / 2];
-  state.counters[prefix + "min_ms"] = ms.front();
-  state.counters[prefix + "p90_ms"] = ms[ms.size() * 9 / 10];
+// Wall and thread-CPU milliseconds of each timed iteration.
+struct Samples {
+  std::vector<double> wall, cpu;
+};
+
+// Times `f` once into `s`.
+template <class F>
+void timed(Samples& s, F&& f) {
+  const double c0 = thread_cpu_ms();
+  const auto t0 = Clock::now();
+  f();
+  s.wall.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+  s.cpu.push_back(thread_cpu_ms() - c0);
+}
+
+void report(benchmark::State& state, Samples s, const std::string& prefix = "") {
+  if (s.wall.empty()) return;
+  std::sort(s.wall.begin(), s.wall.end());
+  std::sort(s.cpu.begin(), s.cpu.end());
+  state.counters[prefix + "p50_ms"] = s.wall[s.wall.size() / 2];
+  state.counters[prefix + "min_ms"] = s.wall.front();
+  state.counters[prefix + "p90_ms"] = s.wall[s.wall.size() * 9 / 10];
+  state.counters[prefix + "cpu_p50_ms"] = s.cpu[s.cpu.size() / 2];
 }
 
 detect::YoloFastestOptions options(int model, int size, int backend) {
@@ -64,11 +86,9 @@ void BM_YoloFastest(benchmark::State& state) {
   detect::YoloFastest detector(detect::find_models_dir(), o);
   const Image image = io::load_image(shared_data(kFrame).string(), io::ImageKind::kColor);
   std::size_t boxes = 0;
-  std::vector<double> ms;
+  Samples ms;
   for (auto _ : state) {
-    const auto t0 = Clock::now();
-    boxes = detector.detect(image, 0).boxes.size();
-    ms.push_back(ms_since(t0));
+    timed(ms, [&] { boxes = detector.detect(image, 0).boxes.size(); });
     benchmark::DoNotOptimize(boxes);
   }
   state.SetLabel(detector.name() + " " + detect::to_string(o.backend));
@@ -95,14 +115,10 @@ void BM_Interleaved(benchmark::State& state) {
   detect::YoloFastest opencv(detect::find_models_dir(),
                              options(v11, 320, static_cast<int>(detect::YoloBackend::kOpenCv)));
   const Image image = io::load_image(shared_data(kFrame).string(), io::ImageKind::kColor);
-  std::vector<double> a, b;
+  Samples a, b;
   for (auto _ : state) {
-    auto t0 = Clock::now();
-    benchmark::DoNotOptimize(onednn.detect(image, 0).boxes.size());
-    a.push_back(ms_since(t0));
-    t0 = Clock::now();
-    benchmark::DoNotOptimize(opencv.detect(image, 0).boxes.size());
-    b.push_back(ms_since(t0));
+    timed(a, [&] { benchmark::DoNotOptimize(onednn.detect(image, 0).boxes.size()); });
+    timed(b, [&] { benchmark::DoNotOptimize(opencv.detect(image, 0).boxes.size()); });
   }
   state.SetLabel("v1.1@320 detect(), oneDNN and OpenCV alternating");
   report(state, a, "onednn_");
@@ -122,7 +138,7 @@ void BM_Forward(benchmark::State& state) {
       detect::yolo_model_files(detect::find_models_dir(), detect::YoloModel::kV11);
   const int size = 320;
   const cv::Mat blob = input_blob(cv::imread(shared_data(kFrame).string()), size);
-  std::vector<double> ms;
+  Samples ms;
   if (state.range(0) == 3) {
     detect::DarknetOneDnn net(f.cfg, f.weights, size, size);
     float* in = net.input();
@@ -132,9 +148,7 @@ void BM_Forward(benchmark::State& state) {
       }
     }
     for (auto _ : state) {
-      const auto t0 = Clock::now();
-      benchmark::DoNotOptimize(net.forward(0.25f).data());
-      ms.push_back(ms_since(t0));
+      timed(ms, [&] { benchmark::DoNotOptimize(net.forward(0.25f).data()); });
     }
   } else {
     cv::dnn::Net net = cv::dnn::readNetFromDarknet(f.cfg, f.weights);
@@ -154,10 +168,10 @@ void BM_Forward(benchmark::State& state) {
     net.setInput(blob);
     net.forward(result, outs);  // allocation and fusion happen on the first pass
     for (auto _ : state) {
-      const auto t0 = Clock::now();
-      net.setInput(blob);
-      net.forward(result, outs);
-      ms.push_back(ms_since(t0));
+      timed(ms, [&] {
+        net.setInput(blob);
+        net.forward(result, outs);
+      });
       benchmark::DoNotOptimize(result.data());
     }
   }
