@@ -8,8 +8,11 @@
 //    frame, v1.1 and XL at 320 and 416 and the body model, with either backend.
 //  - BM_Interleaved: v1.1@320 with the two backends alternating frame by frame, so that both
 //    medians see the same machine load: the fairest comparison on a busy machine.
+//  - BM_Precision: v1.1@320 detect() on oneDNN, fp32 and int8 (calibrated on
+//    int8_calibration_images) alternating.
 //  - BM_Forward: the network alone, v1.1@320: OpenCV DNN fused (its default), without fusion,
-//    OpenCV's int8 path (Net::quantize, calibrated on the shared sample photos), and oneDNN.
+//    OpenCV's int8 path (Net::quantize, calibrated on the shared sample photos), oneDNN fp32
+//    and oneDNN int8.
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
@@ -19,11 +22,13 @@
 #include <opencv2/core/utility.hpp>
 #include <opencv2/dnn.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <string>
 #include <vector>
 
 #include "detect/darknet_onednn.hpp"
 #include "detect/yolo_fastest.hpp"
+#include "io/cv_image.hpp"
 #include "io/image_io.hpp"
 
 namespace {
@@ -126,12 +131,30 @@ void BM_Interleaved(benchmark::State& state) {
 }
 BENCHMARK(BM_Interleaved)->Unit(benchmark::kMillisecond)->Iterations(kIterations);
 
+void BM_Precision(benchmark::State& state) {
+  detect::YoloFastest fp32(detect::find_models_dir());
+  detect::YoloFastestOptions o;
+  o.precision = detect::YoloPrecision::kInt8;
+  o.int8_calibration = detect::int8_calibration_images(shared_data("").string());
+  detect::YoloFastest int8(detect::find_models_dir(), o);
+  const Image image = io::load_image(shared_data(kFrame).string(), io::ImageKind::kColor);
+  Samples a, b;
+  for (auto _ : state) {
+    timed(a, [&] { benchmark::DoNotOptimize(fp32.detect(image, 0).boxes.size()); });
+    timed(b, [&] { benchmark::DoNotOptimize(int8.detect(image, 0).boxes.size()); });
+  }
+  state.SetLabel("v1.1@320 detect(), oneDNN fp32 and int8 alternating");
+  report(state, a, "fp32_");
+  report(state, b, "int8_");
+}
+BENCHMARK(BM_Precision)->Unit(benchmark::kMillisecond)->Iterations(kIterations);
+
 cv::Mat input_blob(const cv::Mat& bgr, int size) {
   return cv::dnn::blobFromImage(bgr, 1.0 / 255.0, cv::Size(size, size), cv::Scalar(), true, false);
 }
 
 // The network alone, v1.1 at 320: variant 0 = OpenCV fused (its default), 1 = OpenCV without
-// fusion, 2 = OpenCV int8, 3 = oneDNN (DarknetOneDnn).
+// fusion, 2 = OpenCV int8, 3 = oneDNN fp32 (DarknetOneDnn), 4 = oneDNN int8.
 void BM_Forward(benchmark::State& state) {
   cv::setNumThreads(1);
   const detect::YoloModelFiles f =
@@ -139,14 +162,25 @@ void BM_Forward(benchmark::State& state) {
   const int size = 320;
   const cv::Mat blob = input_blob(cv::imread(shared_data(kFrame).string()), size);
   Samples ms;
-  if (state.range(0) == 3) {
+  if (state.range(0) >= 3) {
     detect::DarknetOneDnn net(f.cfg, f.weights, size, size);
-    float* in = net.input();
-    for (int c = 0; c < 3; ++c) {
-      for (int y = 0; y < size; ++y) {
-        for (int x = 0; x < size; ++x) in[(y * size + x) * 3 + c] = blob.ptr<float>(0, c, y)[x];
+    auto fill = [&](const cv::Mat& b, float* in) {
+      for (int c = 0; c < 3; ++c) {
+        for (int y = 0; y < size; ++y) {
+          for (int x = 0; x < size; ++x) in[(y * size + x) * 3 + c] = b.ptr<float>(0, c, y)[x];
+        }
       }
+    };
+    if (state.range(0) == 4) {
+      std::vector<cv::Mat> calib;
+      for (const Image& image : detect::int8_calibration_images(shared_data("").string())) {
+        cv::Mat bgr = io::as_mat(image);
+        if (image.channels == 1) cv::cvtColor(bgr, bgr, cv::COLOR_GRAY2BGR);
+        calib.push_back(input_blob(bgr, size));
+      }
+      net.quantize_int8([&](std::size_t i, float* in) { fill(calib[i], in); }, calib.size());
     }
+    fill(blob, net.input());
     for (auto _ : state) {
       timed(ms, [&] { benchmark::DoNotOptimize(net.forward(0.25f).data()); });
     }
@@ -176,10 +210,10 @@ void BM_Forward(benchmark::State& state) {
     }
   }
   static const char* kNames[] = {"OpenCV fp32 fused", "OpenCV fp32 no fusion",
-                                 "OpenCV int8 (Net::quantize)", "oneDNN fp32"};
+                                 "OpenCV int8 (Net::quantize)", "oneDNN fp32", "oneDNN int8"};
   state.SetLabel(kNames[state.range(0)]);
   report(state, ms);
 }
-BENCHMARK(BM_Forward)->DenseRange(0, 3)->Unit(benchmark::kMillisecond)->Iterations(kIterations);
+BENCHMARK(BM_Forward)->DenseRange(0, 4)->Unit(benchmark::kMillisecond)->Iterations(kIterations);
 
 }  // namespace

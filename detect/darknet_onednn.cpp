@@ -525,49 +525,206 @@ struct DarknetOneDnn::Impl {
   dnnl::engine eng{dnnl::engine::kind::cpu, 0};
   dnnl::stream strm{eng};
   int width = 0, height = 0, channels = 0, threads = 1;
-  std::vector<dnnl::memory> tensors;  // activations, NHWC f32
+  std::string cfg;
+  Graph graph;
+  bool int8 = false;
+  // Activations, NHWC: graph tensor i is tensors[i] (f32, or s8 in int8 mode where every reader
+  // is an int8 convolution); int8 mode adds s8 copies of f32 tensors after them.
+  std::vector<dnnl::memory> tensors;
+  std::vector<float> scale;  // per tensor: s8 value = x * scale (int8 mode)
   std::vector<std::pair<dnnl::primitive, std::unordered_map<int, dnnl::memory>>> steps;
-  std::vector<YoloHead> heads;
   std::vector<YoloHeadRows> rows;
-  std::string summary;
 
   dnnl::memory::desc desc(int t) const { return tensors[static_cast<std::size_t>(t)].get_desc(); }
   const dnnl::memory& mem(int t) const { return tensors[static_cast<std::size_t>(t)]; }
+  bool is_s8(int t) const { return desc(t).data_type() == dt::s8; }
+  const Shape& shape(int t) const { return graph.shapes[static_cast<std::size_t>(t)]; }
 
-  void add_conv(const ConvNode& c, const Shape& in) {
+  // `src` and `dst` are tensor indices (an s8 source makes an int8 convolution).
+  void add_conv(const ConvNode& c, int src, int dst) {
+    const Shape& in = shape(c.src);
+    const bool q = is_s8(src);
     const dnnl::memory::dims wdims =
         c.groups == 1
             ? dnnl::memory::dims{c.filters, in.c, c.size, c.size}
             : dnnl::memory::dims{c.groups, c.filters / c.groups, in.c / c.groups, c.size, c.size};
-    const dnnl::memory::desc any_w(wdims, dt::f32, tag::any);
+    const dt wdt = q ? dt::s8 : dt::f32;
     const dnnl::memory::desc bias_md({c.filters}, dt::f32, tag::x);
     const dnnl::convolution_forward::desc d(
-        dnnl::prop_kind::forward_inference, dnnl::algorithm::convolution_direct, desc(c.src), any_w,
-        bias_md, desc(c.dst), {c.stride, c.stride}, {c.pad, c.pad}, {c.pad, c.pad});
+        dnnl::prop_kind::forward_inference, dnnl::algorithm::convolution_direct, desc(src),
+        dnnl::memory::desc(wdims, wdt, tag::any), bias_md, desc(dst), {c.stride, c.stride},
+        {c.pad, c.pad}, {c.pad, c.pad});
     dnnl::post_ops po;
     if (c.act == Activation::kLeaky) po.append_eltwise(1.0f, leaky_relu(), 0.1f, 0.0f);
     if (c.addend >= 0) po.append_binary(dnnl::algorithm::binary_add, desc(c.addend));
     dnnl::primitive_attr attr;
     attr.set_post_ops(po);
+    std::vector<float> bias = c.bias;
+    dnnl::memory user_w({wdims, wdt, c.groups == 1 ? tag::oihw : tag::goihw}, eng);
+    if (q) {
+      // Per output channel symmetric weights; oneDNN 2.x adds the bias to the accumulator
+      // before the output scale, so it is given in the accumulator's units.
+      const std::size_t per = c.weights.size() / static_cast<std::size_t>(c.filters);
+      const float s_in = scale[static_cast<std::size_t>(src)];
+      const float s_out = is_s8(dst) ? scale[static_cast<std::size_t>(dst)] : 1.0f;
+      std::vector<float> out_scales(static_cast<std::size_t>(c.filters));
+      auto* w8 = static_cast<std::int8_t*>(user_w.get_data_handle());
+      for (std::size_t f = 0; f < out_scales.size(); ++f) {
+        const float* w = c.weights.data() + f * per;
+        float m = 0.0f;
+        for (std::size_t k = 0; k < per; ++k) m = std::max(m, std::abs(w[k]));
+        const float s_w = m > 0.0f ? 127.0f / m : 1.0f;
+        for (std::size_t k = 0; k < per; ++k) {
+          w8[f * per + k] = static_cast<std::int8_t>(std::lround(w[k] * s_w));
+        }
+        bias[f] *= s_in * s_w;
+        out_scales[f] = s_out / (s_in * s_w);
+      }
+      attr.set_output_scales(1 << 1, out_scales);
+    } else {
+      std::memcpy(user_w.get_data_handle(), c.weights.data(), c.weights.size() * sizeof(float));
+    }
     const dnnl::convolution_forward::primitive_desc pd(d, attr, eng);
-    dnnl::memory user_w({wdims, dt::f32, c.groups == 1 ? tag::oihw : tag::goihw}, eng);
-    std::memcpy(user_w.get_data_handle(), c.weights.data(), c.weights.size() * sizeof(float));
     dnnl::memory w = user_w;
     if (pd.weights_desc() != user_w.get_desc()) {
       w = dnnl::memory(pd.weights_desc(), eng);
       dnnl::reorder(user_w, w).execute(strm, user_w, w);
     }
     dnnl::memory b(bias_md, eng);
-    std::memcpy(b.get_data_handle(), c.bias.data(), c.bias.size() * sizeof(float));
-    std::unordered_map<int, dnnl::memory> args{{DNNL_ARG_SRC, mem(c.src)},
+    std::memcpy(b.get_data_handle(), bias.data(), bias.size() * sizeof(float));
+    std::unordered_map<int, dnnl::memory> args{{DNNL_ARG_SRC, mem(src)},
                                                {DNNL_ARG_WEIGHTS, w},
                                                {DNNL_ARG_BIAS, b},
-                                               {DNNL_ARG_DST, mem(c.dst)}};
+                                               {DNNL_ARG_DST, mem(dst)}};
     if (c.addend >= 0) {
       const int index = c.act == Activation::kLeaky ? 1 : 0;
       args[DNNL_ARG_ATTR_MULTIPLE_POST_OP(index) | DNNL_ARG_SRC_1] = mem(c.addend);
     }
     steps.emplace_back(dnnl::convolution_forward(pd), std::move(args));
+  }
+
+  // Builds the primitives: fp32 when `absmax` is empty, else int8 where it pays (see
+  // quantize_int8) with per-tensor scales 127 / absmax.
+  void build(const std::vector<float>& absmax) {
+    const Graph& g = graph;
+    const std::size_t n = g.shapes.size();
+    dnnl::memory input = tensors.empty() ? dnnl::memory() : tensors.front();
+    tensors.clear();
+    steps.clear();
+    scale.assign(n, 1.0f);
+    // Which tensors are s8: produced by a convolution without a fused shortcut from a tensor
+    // other than the input, and read only as the source of convolutions.
+    std::vector<bool> s8(n, false);
+    if (!absmax.empty()) {
+      std::vector<int> producer(n, -1);
+      std::vector<bool> conv_only(n, true);
+      std::vector<int> readers(n, 0);
+      for (std::size_t i = 0; i < g.nodes.size(); ++i) {
+        const Node& node = g.nodes[i];
+        auto read_other = [&](int t) { conv_only[static_cast<std::size_t>(t)] = false; };
+        if (const auto* c = std::get_if<ConvNode>(&node)) {
+          ++readers[static_cast<std::size_t>(c->src)];
+          if (c->addend >= 0) {
+            read_other(c->addend);
+          } else if (c->src != 0) {
+            producer[static_cast<std::size_t>(c->dst)] = static_cast<int>(i);
+          }
+        } else if (const auto* a = std::get_if<AddNode>(&node)) {
+          read_other(a->a);
+          read_other(a->b);
+        } else if (const auto* k = std::get_if<ConcatNode>(&node)) {
+          for (int t : k->srcs) read_other(t);
+        } else if (const auto* p = std::get_if<PoolNode>(&node)) {
+          read_other(p->src);
+        } else if (const auto* u = std::get_if<UpsampleNode>(&node)) {
+          read_other(u->src);
+        }
+      }
+      for (const YoloHead& h : g.heads) conv_only[static_cast<std::size_t>(h.tensor)] = false;
+      for (std::size_t t = 1; t < n; ++t) {
+        // Only at 1/8 of the input resolution or coarser: the earlier stages are thin (4 to 32
+        // channels), where 8 bits lose the most accuracy and save the least time.
+        const bool coarse = g.shapes[t].h * 8 <= height && g.shapes[t].w * 8 <= width;
+        s8[t] = producer[t] >= 0 && conv_only[t] && readers[t] > 0 && absmax[t] > 0.0f && coarse;
+        scale[t] = absmax[t] > 0.0f ? 127.0f / absmax[t] : 1.0f;
+      }
+    }
+    for (std::size_t t = 0; t < n; ++t) {
+      const Shape& s = g.shapes[t];
+      if (t == 0 && input) {
+        tensors.push_back(input);
+        continue;
+      }
+      tensors.emplace_back(
+          dnnl::memory::desc({1, s.c, s.h, s.w}, s8[t] ? dt::s8 : dt::f32, tag::nhwc), eng);
+    }
+    std::vector<int> copy_of(n, -1);  // s8 copy of an f32 tensor, made before its first use
+    auto s8_copy = [&](int t) {
+      int& c = copy_of[static_cast<std::size_t>(t)];
+      if (c >= 0) return c;
+      const Shape& s = shape(t);
+      tensors.emplace_back(dnnl::memory::desc({1, s.c, s.h, s.w}, dt::s8, tag::nhwc), eng);
+      c = static_cast<int>(tensors.size()) - 1;
+      scale.push_back(scale[static_cast<std::size_t>(t)]);
+      dnnl::primitive_attr attr;
+      attr.set_output_scales(0, {scale[static_cast<std::size_t>(t)]});
+      steps.emplace_back(
+          dnnl::reorder(dnnl::reorder::primitive_desc(mem(t), mem(c), attr)),
+          std::unordered_map<int, dnnl::memory>{{DNNL_ARG_FROM, mem(t)}, {DNNL_ARG_TO, mem(c)}});
+      return c;
+    };
+    for (const Node& node : g.nodes) {
+      if (const auto* c = std::get_if<ConvNode>(&node)) {
+        int src = c->src;
+        if (s8[static_cast<std::size_t>(c->dst)] && !is_s8(src)) src = s8_copy(src);
+        add_conv(*c, src, c->dst);
+      } else if (const auto* a = std::get_if<AddNode>(&node)) {
+        const dnnl::binary::desc d(dnnl::algorithm::binary_add, desc(a->a), desc(a->b),
+                                   desc(a->dst));
+        steps.emplace_back(dnnl::binary(dnnl::binary::primitive_desc(d, eng)),
+                           std::unordered_map<int, dnnl::memory>{{DNNL_ARG_SRC_0, mem(a->a)},
+                                                                 {DNNL_ARG_SRC_1, mem(a->b)},
+                                                                 {DNNL_ARG_DST, mem(a->dst)}});
+      } else if (const auto* k = std::get_if<ConcatNode>(&node)) {
+        std::vector<dnnl::memory::desc> mds;
+        std::unordered_map<int, dnnl::memory> args{{DNNL_ARG_DST, mem(k->dst)}};
+        for (std::size_t j = 0; j < k->srcs.size(); ++j) {
+          mds.push_back(desc(k->srcs[j]));
+          args[DNNL_ARG_MULTIPLE_SRC + static_cast<int>(j)] = mem(k->srcs[j]);
+        }
+        steps.emplace_back(dnnl::concat(dnnl::concat::primitive_desc(desc(k->dst), 1, mds, eng)),
+                           std::move(args));
+      } else if (const auto* p = std::get_if<PoolNode>(&node)) {
+        const Shape& in = shape(p->src);
+        const Shape& o = shape(p->dst);
+        // Darknet pads by pad/2 before and the rest after; padding never wins a max.
+        const int before = p->pad / 2;
+        const int after_h = (o.h - 1) * p->stride + p->size - in.h - before;
+        const int after_w = (o.w - 1) * p->stride + p->size - in.w - before;
+        const dnnl::pooling_forward::desc d(
+            dnnl::prop_kind::forward_inference, dnnl::algorithm::pooling_max, desc(p->src),
+            desc(p->dst), {p->stride, p->stride}, {p->size, p->size}, {before, before},
+            {std::max(after_h, 0), std::max(after_w, 0)});
+        steps.emplace_back(dnnl::pooling_forward(dnnl::pooling_forward::primitive_desc(d, eng)),
+                           std::unordered_map<int, dnnl::memory>{{DNNL_ARG_SRC, mem(p->src)},
+                                                                 {DNNL_ARG_DST, mem(p->dst)}});
+      } else if (const auto* u = std::get_if<UpsampleNode>(&node)) {
+        const dnnl::resampling_forward::desc d(dnnl::prop_kind::forward_inference,
+                                               dnnl::algorithm::resampling_nearest, desc(u->src),
+                                               desc(u->dst));
+        steps.emplace_back(
+            dnnl::resampling_forward(dnnl::resampling_forward::primitive_desc(d, eng)),
+            std::unordered_map<int, dnnl::memory>{{DNNL_ARG_SRC, mem(u->src)},
+                                                  {DNNL_ARG_DST, mem(u->dst)}});
+      }
+    }
+    strm.wait();
+    int8 = !absmax.empty();
+  }
+
+  void run() {
+    for (auto& [prim, args] : steps) prim.execute(strm, args);
+    strm.wait();
   }
 };
 
@@ -580,6 +737,7 @@ DarknetOneDnn::DarknetOneDnn(const std::string& cfg, const std::string& weights,
     throw Error::at("DarknetOneDnnOptions", 0, "input_scale", "must be positive");
   }
   impl_->threads = threads;
+  impl_->cfg = cfg;
   if (!std::filesystem::is_regular_file(cfg)) throw Error::at(cfg, 0, "", "cfg file not found");
   if (!std::filesystem::is_regular_file(weights)) {
     throw Error::at(weights, 0, "", "weights file not found");
@@ -607,61 +765,13 @@ DarknetOneDnn::DarknetOneDnn(const std::string& cfg, const std::string& weights,
   m.width = width;
   m.height = height;
   m.channels = g.channels;
-  m.summary = std::move(g.summary);
-  m.heads = std::move(g.heads);
+  m.graph = std::move(g);
   try {
-    for (const Shape& s : g.shapes) {
-      m.tensors.emplace_back(dnnl::memory::desc({1, s.c, s.h, s.w}, dt::f32, tag::nhwc), m.eng);
-    }
-    for (const Node& node : g.nodes) {
-      if (const auto* c = std::get_if<ConvNode>(&node)) {
-        m.add_conv(*c, g.shapes[static_cast<std::size_t>(c->src)]);
-      } else if (const auto* a = std::get_if<AddNode>(&node)) {
-        const dnnl::binary::desc d(dnnl::algorithm::binary_add, m.desc(a->a), m.desc(a->b),
-                                   m.desc(a->dst));
-        m.steps.emplace_back(dnnl::binary(dnnl::binary::primitive_desc(d, m.eng)),
-                             std::unordered_map<int, dnnl::memory>{{DNNL_ARG_SRC_0, m.mem(a->a)},
-                                                                   {DNNL_ARG_SRC_1, m.mem(a->b)},
-                                                                   {DNNL_ARG_DST, m.mem(a->dst)}});
-      } else if (const auto* k = std::get_if<ConcatNode>(&node)) {
-        std::vector<dnnl::memory::desc> mds;
-        std::unordered_map<int, dnnl::memory> args{{DNNL_ARG_DST, m.mem(k->dst)}};
-        for (std::size_t j = 0; j < k->srcs.size(); ++j) {
-          mds.push_back(m.desc(k->srcs[j]));
-          args[DNNL_ARG_MULTIPLE_SRC + static_cast<int>(j)] = m.mem(k->srcs[j]);
-        }
-        m.steps.emplace_back(
-            dnnl::concat(dnnl::concat::primitive_desc(m.desc(k->dst), 1, mds, m.eng)),
-            std::move(args));
-      } else if (const auto* p = std::get_if<PoolNode>(&node)) {
-        const Shape& in = g.shapes[static_cast<std::size_t>(p->src)];
-        const Shape& o = g.shapes[static_cast<std::size_t>(p->dst)];
-        // Darknet pads by pad/2 before and the rest after; padding never wins a max.
-        const int before = p->pad / 2;
-        const int after_h = (o.h - 1) * p->stride + p->size - in.h - before;
-        const int after_w = (o.w - 1) * p->stride + p->size - in.w - before;
-        const dnnl::pooling_forward::desc d(
-            dnnl::prop_kind::forward_inference, dnnl::algorithm::pooling_max, m.desc(p->src),
-            m.desc(p->dst), {p->stride, p->stride}, {p->size, p->size}, {before, before},
-            {std::max(after_h, 0), std::max(after_w, 0)});
-        m.steps.emplace_back(dnnl::pooling_forward(dnnl::pooling_forward::primitive_desc(d, m.eng)),
-                             std::unordered_map<int, dnnl::memory>{{DNNL_ARG_SRC, m.mem(p->src)},
-                                                                   {DNNL_ARG_DST, m.mem(p->dst)}});
-      } else if (const auto* u = std::get_if<UpsampleNode>(&node)) {
-        const dnnl::resampling_forward::desc d(dnnl::prop_kind::forward_inference,
-                                               dnnl::algorithm::resampling_nearest, m.desc(u->src),
-                                               m.desc(u->dst));
-        m.steps.emplace_back(
-            dnnl::resampling_forward(dnnl::resampling_forward::primitive_desc(d, m.eng)),
-            std::unordered_map<int, dnnl::memory>{{DNNL_ARG_SRC, m.mem(u->src)},
-                                                  {DNNL_ARG_DST, m.mem(u->dst)}});
-      }
-    }
-    m.strm.wait();
+    m.build({});
   } catch (const dnnl::error& e) {
     throw Error::at(cfg, 0, "", std::string("oneDNN cannot build this network: ") + e.what());
   }
-  for (const YoloHead& h : m.heads) {
+  for (const YoloHead& h : m.graph.heads) {
     YoloHeadRows r;
     r.rows = h.shape.h * h.shape.w * static_cast<int>(h.anchors.size() / 2);
     r.cols = 5 + h.classes;
@@ -670,16 +780,44 @@ DarknetOneDnn::DarknetOneDnn(const std::string& cfg, const std::string& weights,
   }
 }
 
+void DarknetOneDnn::quantize_int8(const std::function<void(std::size_t, float*)>& fill,
+                                  std::size_t count) {
+  Impl& m = *impl_;
+  if (m.int8) throw Error::at(m.cfg, 0, "", "quantize_int8: the network is already int8");
+  if (count == 0) throw Error::at(m.cfg, 0, "", "quantize_int8 needs calibration inputs");
+  const ThreadScope scope(m.threads);
+  std::vector<float> absmax(m.graph.shapes.size(), 0.0f);
+  for (std::size_t i = 0; i < count; ++i) {
+    fill(i, input());
+    m.run();
+    for (std::size_t t = 1; t < absmax.size(); ++t) {
+      const auto* x = static_cast<const float*>(m.tensors[t].get_data_handle());
+      const Shape& s = m.graph.shapes[t];
+      const std::size_t len = static_cast<std::size_t>(s.c) * s.h * s.w;
+      float a = absmax[t];
+      for (std::size_t k = 0; k < len; ++k) a = std::max(a, std::abs(x[k]));
+      absmax[t] = a;
+    }
+  }
+  try {
+    m.build(absmax);
+  } catch (const dnnl::error& e) {
+    throw Error::at(m.cfg, 0, "", std::string("oneDNN cannot build the int8 network: ") + e.what());
+  }
+}
+
+bool DarknetOneDnn::int8() const { return impl_->int8; }
+
 DarknetOneDnn::~DarknetOneDnn() = default;
 
 int DarknetOneDnn::width() const { return impl_->width; }
 int DarknetOneDnn::height() const { return impl_->height; }
 int DarknetOneDnn::channels() const { return impl_->channels; }
-int DarknetOneDnn::classes() const { return impl_->heads.front().classes; }
+int DarknetOneDnn::classes() const { return impl_->graph.heads.front().classes; }
 float* DarknetOneDnn::input() {
   return static_cast<float*>(impl_->tensors.front().get_data_handle());
 }
-std::string DarknetOneDnn::summary() const { return impl_->summary; }
+std::string DarknetOneDnn::summary() const { return impl_->graph.summary; }
 
 namespace {
 inline float sigmoid(float x) { return 1.0f / (1.0f + std::exp(-x)); }
@@ -688,10 +826,9 @@ inline float sigmoid(float x) { return 1.0f / (1.0f + std::exp(-x)); }
 const std::vector<YoloHeadRows>& DarknetOneDnn::forward(float score_floor) {
   Impl& m = *impl_;
   const ThreadScope scope(m.threads);
-  for (auto& [prim, args] : m.steps) prim.execute(m.strm, args);
-  m.strm.wait();
-  for (std::size_t k = 0; k < m.heads.size(); ++k) {
-    const YoloHead& h = m.heads[k];
+  m.run();
+  for (std::size_t k = 0; k < m.graph.heads.size(); ++k) {
+    const YoloHead& h = m.graph.heads[k];
     YoloHeadRows& out = m.rows[k];
     const float* src = static_cast<const float*>(m.mem(h.tensor).get_data_handle());
     const int anchors = static_cast<int>(h.anchors.size() / 2);

@@ -6,6 +6,8 @@
 // the convolutions, the activation and a following shortcut's addition run as the convolution's
 // post-ops, and every activation is NHWC fp32, so a frame is one pass of fused kernels without
 // per-layer reshaping. The oneDNN types stay in the .cpp (pimpl).
+#include <cstddef>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -58,6 +60,17 @@ class DarknetOneDnn {
   // Runs the network on input(). Class scores of rows whose objectness is below `score_floor`
   // are left 0 (such a row cannot reach that score), which skips most of the decoding work.
   const std::vector<YoloHeadRows>& forward(float score_floor);
+
+  // Switches the network to int8 where that pays on this CPU: every activation at 1/8 of the
+  // input resolution or coarser that is read only by convolutions (the wide expanded tensors of
+  // the inverted-residual blocks) becomes s8 with a
+  // per-tensor scale of 127 / its largest magnitude over the calibration inputs, those
+  // convolutions run on s8 weights (per output channel scales), and each f32 tensor they read
+  // gets an s8 copy; shortcuts, routes, pools and the heads stay f32. `fill(i, input())` writes
+  // calibration input i (as for forward) for i < count; the fp32 network is run on each. Throws
+  // kestrel::Error for count 0 or when already int8.
+  void quantize_int8(const std::function<void(std::size_t, float*)>& fill, std::size_t count);
+  bool int8() const;
 
   // Rows of the network's layers as Darknet prints them, for logs.
   std::string summary() const;

@@ -7,6 +7,7 @@
 #include <opencv2/core/utility.hpp>
 #include <opencv2/dnn.hpp>
 #include <opencv2/imgproc.hpp>
+#include <opencv2/videoio.hpp>
 #include <stdexcept>
 
 #include "core/error.hpp"
@@ -14,6 +15,7 @@
 #include "detect/darknet_onednn.hpp"
 #include "detect/nms.hpp"
 #include "io/cv_image.hpp"
+#include "io/image_io.hpp"
 
 namespace kestrel::detect {
 
@@ -98,6 +100,30 @@ std::string find_models_dir() {
   return dir.string();
 }
 
+std::vector<Image> int8_calibration_images(const std::string& data_dir) {
+  std::vector<Image> out;
+  const fs::path video = fs::path(data_dir) / "video/vtest.avi";
+  cv::VideoCapture cap(video.string());
+  if (!cap.isOpened()) throw Error::at(video.string(), 0, "", "cannot read the video");
+  cv::Mat frame;
+  for (int i = 0; i <= 700 && cap.read(frame); ++i) {
+    if (i >= 100 && i % 100 == 0) out.push_back(io::to_image(frame.clone()));
+  }
+  if (out.size() != 7) throw Error::at(video.string(), 0, "", "fewer than 701 frames");
+  const fs::path cam0 = fs::path(data_dir) / "euroc/V1_01_micro/mav0/cam0/data";
+  if (!fs::is_directory(cam0)) throw Error::at(cam0.string(), 0, "", "folder not found");
+  std::vector<fs::path> frames;
+  for (const auto& e : fs::directory_iterator(cam0)) {
+    if (e.path().extension() == ".png") frames.push_back(e.path());
+  }
+  std::sort(frames.begin(), frames.end());
+  if (frames.empty()) throw Error::at(cam0.string(), 0, "", "no PNG frames");
+  for (std::size_t i = 0; i < frames.size(); i += 20) {
+    out.push_back(io::load_image(frames[i].string(), io::ImageKind::kGrey));
+  }
+  return out;
+}
+
 struct YoloFastest::Impl {
   std::unique_ptr<DarknetOneDnn> onednn;  // the oneDNN backend, or
   cv::dnn::Net net;                       // the OpenCV one
@@ -108,7 +134,38 @@ struct YoloFastest::Impl {
   cv::Mat colour, resized;
   std::vector<cv::Mat> outputs;
   std::vector<cv::Mat> channels;
+
+  // colour <- `image` as BGR, resized <- its letterboxed size; returns the letterbox.
+  Letterbox resize(const Image& image, int n, InputResize mode) {
+    const cv::Mat src = io::as_mat(image);
+    if (image.channels == 1) {
+      cv::cvtColor(src, colour, cv::COLOR_GRAY2BGR);
+    } else {
+      colour = src;
+    }
+    const Letterbox lb = Letterbox::make(image.width, image.height, n, n, mode);
+    cv::resize(colour, resized, cv::Size(lb.resized_width, lb.resized_height), 0, 0,
+               cv::INTER_LINEAR);
+    return lb;
+  }
+
+  // The oneDNN input from `resized`: NHWC BGR in [0, 255] (the 1/255 and the swap to RGB are
+  // folded into the network); the letterbox padding is Darknet's exact 0.5.
+  void fill_onednn_input(const Letterbox& lb, int n, float* dst) {
+    cv::Mat in(n, 3 * n, CV_32F, dst);
+    if (lb.resized_width != n || lb.resized_height != n) in.setTo(cv::Scalar(127.5));
+    resized.reshape(1).convertTo(
+        in(cv::Rect(3 * lb.pad_x, lb.pad_y, 3 * lb.resized_width, lb.resized_height)), CV_32F);
+  }
 };
+
+namespace {
+void check_detect_image(const Image& image, const std::string& what) {
+  if (image.type != PixelType::kU8 || (image.channels != 1 && image.channels != 3)) {
+    throw std::invalid_argument(what + ": image must be 8-bit BGR or grey");
+  }
+}
+}  // namespace
 
 YoloFastest::YoloFastest(const std::string& models_dir, const YoloFastestOptions& options)
     : options_(options), impl_(std::make_unique<Impl>()) {
@@ -126,6 +183,20 @@ YoloFastest::YoloFastest(const std::string& models_dir, const YoloFastestOptions
   if (options.num_threads < 0) throw Error::at(where, 0, "num_threads", "must not be negative");
   if (options.backend != YoloBackend::kOneDnn && options.backend != YoloBackend::kOpenCv) {
     throw Error::at(where, 0, "backend", "unknown backend");
+  }
+  const bool int8 = options.precision == YoloPrecision::kInt8;
+  if (!int8 && options.precision != YoloPrecision::kFp32) {
+    throw Error::at(where, 0, "precision", "unknown precision");
+  }
+  if (int8 && options.backend != YoloBackend::kOneDnn) {
+    throw Error::at(where, 0, "precision", "int8 needs the oneDNN backend");
+  }
+  if (int8 && options.int8_calibration.empty()) {
+    throw Error::at(where, 0, "int8_calibration", "int8 needs calibration images");
+  }
+  for (const Image& image : options.int8_calibration) {
+    if (image.empty()) throw Error::at(where, 0, "int8_calibration", "an image is empty");
+    check_detect_image(image, "YoloFastestOptions::int8_calibration");
   }
   const YoloModelFiles files = yolo_model_files(models_dir, options.model);
   impl_->class_names = read_class_names(files.names);
@@ -150,6 +221,15 @@ YoloFastest::YoloFastest(const std::string& models_dir, const YoloFastestOptions
                       std::to_string(impl_->class_names.size()) + " class names for a model of " +
                           std::to_string(impl_->onednn->classes()) + " classes (cfg " + files.cfg +
                           ")");
+    }
+    if (int8) {
+      impl_->onednn->quantize_int8(
+          [&](std::size_t i, float* in) {
+            const Letterbox lb = impl_->resize(options.int8_calibration[i], n, options.resize);
+            impl_->fill_onednn_input(lb, n, in);
+          },
+          options.int8_calibration.size());
+      options_.int8_calibration.clear();  // not needed any more
     }
     // The first pass touches every buffer; do it here, not on frame 1.
     std::fill_n(impl_->onednn->input(), static_cast<std::size_t>(3 * n * n), 127.5f);
@@ -187,21 +267,10 @@ DetectionSet YoloFastest::detect(const Image& image, Timestamp t) {
   DetectionSet out;
   out.t = t;
   if (image.empty()) return out;
-  if (image.type != PixelType::kU8 || (image.channels != 1 && image.channels != 3)) {
-    throw std::invalid_argument("YoloFastest::detect: image must be 8-bit BGR or grey");
-  }
+  check_detect_image(image, "YoloFastest::detect");
   Impl& m = *impl_;
-  const cv::Mat src = io::as_mat(image);
-  if (image.channels == 1) {
-    cv::cvtColor(src, m.colour, cv::COLOR_GRAY2BGR);
-  } else {
-    m.colour = src;
-  }
   const int n = options_.input_size;
-  const Letterbox lb = Letterbox::make(image.width, image.height, n, n, options_.resize);
-
-  cv::resize(m.colour, m.resized, cv::Size(lb.resized_width, lb.resized_height), 0, 0,
-             cv::INTER_LINEAR);
+  const Letterbox lb = m.resize(image, n, options_.resize);
   std::vector<Detection> candidates;
   const int num_classes = static_cast<int>(m.class_names.size());
   // Region rows: cx, cy, w, h (fractions of the network input), objectness, then one score per
@@ -228,11 +297,7 @@ DetectionSet YoloFastest::detect(const Image& image, Timestamp t) {
   };
 
   if (m.onednn) {
-    // NHWC BGR in [0, 255] (see the constructor); the letterbox padding is Darknet's exact 0.5.
-    cv::Mat in(n, 3 * n, CV_32F, m.onednn->input());
-    if (lb.resized_width != n || lb.resized_height != n) in.setTo(cv::Scalar(127.5));
-    m.resized.reshape(1).convertTo(
-        in(cv::Rect(3 * lb.pad_x, lb.pad_y, 3 * lb.resized_width, lb.resized_height)), CV_32F);
+    m.fill_onednn_input(lb, n, m.onednn->input());
     for (const YoloHeadRows& head : m.onednn->forward(options_.conf_threshold)) {
       if (head.cols != 5 + num_classes) {
         throw std::runtime_error("YoloFastest: output has " + std::to_string(head.cols) +

@@ -8,6 +8,7 @@
 #include <string_view>
 #include <vector>
 
+#include "core/image.hpp"
 #include "detect/detector.hpp"
 #include "detect/letterbox.hpp"
 
@@ -35,6 +36,11 @@ enum class YoloBackend {
 std::optional<YoloBackend> parse_yolo_backend(std::string_view text);
 std::string to_string(YoloBackend backend);
 
+// The oneDNN backend's arithmetic. Int8 runs the wide inner activations of the network in 8
+// bits (DarknetOneDnn::quantize_int8), calibrated at construction on the images in
+// YoloFastestOptions::int8_calibration.
+enum class YoloPrecision { kFp32, kInt8 };
+
 struct YoloModelFiles {
   std::string cfg, weights, names;
 };
@@ -47,10 +53,21 @@ YoloModelFiles yolo_model_files(const std::string& models_dir, YoloModel model);
 // directory when it does not exist.
 std::string find_models_dir();
 
+// The int8 calibration set used by the tests and benches, real frames disjoint from every image
+// the detector tests check: frames 100, 200, ..., 700 of data/video/vtest.avi (pedestrians seen
+// from above, 768x576) and every 20th frame of data/euroc/V1_01_micro/mav0/cam0 (grey, indoor),
+// 12 images. `data_dir` is the shared data folder (find_models_dir()/../../data). Throws
+// kestrel::Error naming the file or folder that cannot be read.
+std::vector<Image> int8_calibration_images(const std::string& data_dir);
+
 struct YoloFastestOptions {
   YoloModel model = YoloModel::kV11;
   int input_size = 320;  // network input, square; a multiple of 32 (320 or 416 in practice)
   YoloBackend backend = YoloBackend::kOneDnn;
+  YoloPrecision precision = YoloPrecision::kFp32;  // int8 needs the oneDNN backend
+  // Int8 only: the calibration images (8-bit BGR or grey, any size), pre-processed as detect()
+  // does; they set each quantized activation's range. Required (non-empty) for int8.
+  std::vector<Image> int8_calibration;
   // Minimum class score (objectness x class probability). With the OpenCV backend values below
   // 0.2 act as 0.2 (its Region layer zeroes lower scores); oneDNN honours any value.
   float conf_threshold = 0.25f;

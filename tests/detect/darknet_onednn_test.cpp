@@ -11,9 +11,11 @@
 #include <fstream>
 #include <functional>
 #include <iostream>
+#include <map>
 #include <opencv2/core/utility.hpp>
 #include <opencv2/dnn.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
 #include <random>
 #include <string>
@@ -546,6 +548,196 @@ TEST(YoloFastestBackends, OneDnnGivesOpenCvsBoxes) {
   EXPECT_EQ(extra, 0);
   EXPECT_GT(worst_iou, 0.98);
   EXPECT_LT(worst_score, 0.01);
+}
+
+}  // namespace
+}  // namespace kestrel::detect
+
+// ---- int8 ------------------------------------------------------------------------------------
+
+namespace kestrel::detect {
+namespace {
+
+std::vector<Image> calibration_images() {
+  return int8_calibration_images(test::shared_dir().append("data").string());
+}
+
+struct Agreement {
+  int reference = 0, matched = 0, extra = 0;
+  double iou_sum = 0, worst_iou = 1, worst_score = 0;
+};
+
+// Recall of `a`'s boxes (score at least 0.05 above the threshold) among `b`'s of the same label
+// with IoU >= 0.7, and `b`'s confident boxes that `a` lacks.
+Agreement agreement(YoloFastest& a, YoloFastest& b, const std::vector<Image>& images) {
+  Agreement g;
+  const float sure = a.options().conf_threshold + 0.05f;
+  for (const Image& image : images) {
+    const DetectionSet x = a.detect(image, 0);
+    const DetectionSet y = b.detect(image, 0);
+    for (const Detection& p : x.boxes) {
+      if (p.score < sure) continue;
+      ++g.reference;
+      const Detection* best = nullptr;
+      for (const Detection& q : y.boxes) {
+        if (q.label == p.label && (!best || iou(p, q) > iou(p, *best))) best = &q;
+      }
+      if (!best || iou(p, *best) < 0.7f) continue;
+      ++g.matched;
+      g.iou_sum += iou(p, *best);
+      g.worst_iou = std::min(g.worst_iou, static_cast<double>(iou(p, *best)));
+      g.worst_score = std::max(g.worst_score, static_cast<double>(std::abs(p.score - best->score)));
+    }
+    for (const Detection& q : y.boxes) {
+      if (q.score < sure) continue;
+      g.extra += std::none_of(x.boxes.begin(), x.boxes.end(), [&](const Detection& p) {
+        return p.label == q.label && iou(p, q) >= 0.7f;
+      });
+    }
+  }
+  return g;
+}
+
+TEST(YoloFastestInt8, KeepsTheFp32BoxesOnTheTestImages) {
+  YoloFastest fp32(models_dir());
+  YoloFastestOptions o;
+  o.precision = YoloPrecision::kInt8;
+  o.int8_calibration = calibration_images();
+  ASSERT_EQ(o.int8_calibration.size(), 12u);
+  YoloFastest int8(models_dir(), o);
+  EXPECT_TRUE(int8.options().int8_calibration.empty());  // released after calibration
+
+  std::vector<Image> images;
+  for (const std::string& rel : kImages) {
+    images.push_back(io::load_image(test::shared_data(rel).string(), io::ImageKind::kColor));
+  }
+  cv::VideoCapture cap(test::shared_data("video/vtest.avi").string());
+  cv::Mat frame;
+  for (int i = 0; i < 20 && cap.read(frame); ++i) images.push_back(io::to_image(frame.clone()));
+  const Agreement g = agreement(fp32, int8, images);
+  std::cout << "int8 vs fp32 on " << images.size() << " images: recall " << g.matched << "/"
+            << g.reference << ", mean IoU " << (g.matched ? g.iou_sum / g.matched : 0)
+            << ", worst IoU " << g.worst_iou << ", worst score difference " << g.worst_score
+            << ", confident boxes fp32 lacks " << g.extra << "\n";
+  EXPECT_GE(g.reference, 80);
+  EXPECT_GE(g.matched, g.reference * 95 / 100);
+  EXPECT_GT(g.iou_sum / std::max(1, g.matched), 0.9);
+  EXPECT_LE(g.extra, g.reference / 20);
+}
+
+TEST(DarknetOneDnnInt8, RowsStayCloseToFp32) {
+  const YoloModelFiles f = yolo_model_files(models_dir(), YoloModel::kV11);
+  DarknetOneDnn fp32(f.cfg, f.weights, 320, 320);
+  DarknetOneDnn int8(f.cfg, f.weights, 320, 320);
+  const std::vector<Image> calib = calibration_images();
+  auto fill = [](const Image& image, float* in) {
+    cv::Mat bgr = io::as_mat(image);
+    if (image.channels == 1) cv::cvtColor(bgr, bgr, cv::COLOR_GRAY2BGR);
+    fill_nhwc(
+        cv::dnn::blobFromImage(bgr, 1.0 / 255.0, cv::Size(320, 320), cv::Scalar(), true, false),
+        in);
+  };
+  EXPECT_FALSE(int8.int8());
+  int8.quantize_int8([&](std::size_t i, float* in) { fill(calib[i], in); }, calib.size());
+  EXPECT_TRUE(int8.int8());
+  EXPECT_NE(error_of([&] { int8.quantize_int8([&](std::size_t, float*) {}, 1); }).find("already"),
+            std::string::npos);
+  EXPECT_NE(
+      error_of([&] { fp32.quantize_int8([&](std::size_t, float*) {}, 0); }).find("calibration"),
+      std::string::npos);
+  // On the test images: the confident rows' best class score moves by little on average.
+  double sum = 0, worst = 0, any = 0;
+  int n = 0;
+  for (const std::string& rel : kImages) {
+    const cv::Mat blob = blob_of(rel, 320);
+    fill_nhwc(blob, fp32.input());
+    fill_nhwc(blob, int8.input());
+    const std::vector<YoloHeadRows> a = fp32.forward(0.0f);
+    const std::vector<YoloHeadRows>& b = int8.forward(0.0f);
+    for (std::size_t k = 0; k < a.size(); ++k) {
+      for (int r = 0; r < a[k].rows; ++r) {
+        const float* x = a[k].row(r);
+        const float* y = b[k].row(r);
+        any = std::max(any, std::abs(double(x[4]) - y[4]));
+        const int c = static_cast<int>(std::max_element(x + 5, x + a[k].cols) - x);
+        if (x[c] < 0.25f) continue;
+        const double d = std::abs(double(x[c]) - y[c]);
+        sum += d;
+        worst = std::max(worst, d);
+        ++n;
+      }
+    }
+  }
+  std::cout << "int8 vs fp32 rows: " << n << " confident rows, mean |score change| " << sum / n
+            << ", worst " << worst << "\n";
+  EXPECT_GT(any, 1e-3);  // int8 really runs
+  EXPECT_GE(n, 50);
+  EXPECT_LT(sum / n, 0.06);
+  EXPECT_LT(worst, 0.35);
+}
+
+// The facts YoloFastestTest checks for fp32 that int8 keeps: the TUM frame's two people and
+// their mask coverage, and the sample photos' classes.
+TEST(YoloFastestInt8, TumFrameAndPhotos) {
+  YoloFastestOptions o;
+  o.precision = YoloPrecision::kInt8;
+  o.int8_calibration = calibration_images();
+  YoloFastest int8(models_dir(), o);
+  const Image rgb = io::load_image(test::shared_data(kImages[0]).string(), io::ImageKind::kColor);
+  const Image mask =
+      io::load_image(test::shared_data("tum_fr3/frame/static_mask_1341846313.592026.png").string(),
+                     io::ImageKind::kGrey);
+  const DetectionSet set = int8.detect(rgb, 0);
+  long total = 0, covered = 0;
+  for (int y = 0; y < mask.height; ++y) {
+    for (int x = 0; x < mask.width; ++x) {
+      if (mask.row<std::uint8_t>(y)[x] != 0) continue;
+      ++total;
+      covered += std::any_of(set.boxes.begin(), set.boxes.end(), [&](const Detection& d) {
+        return d.label == "person" && x + 0.5 >= d.x_min && x + 0.5 < d.x_max &&
+               y + 0.5 >= d.y_min && y + 0.5 < d.y_max;
+      });
+    }
+  }
+  const double coverage = static_cast<double>(covered) / static_cast<double>(total);
+  std::cout << "int8 person-mask coverage v1.1@320: " << coverage << "\n";
+  EXPECT_GE(coverage, 0.90);
+  EXPECT_EQ(std::count_if(set.boxes.begin(), set.boxes.end(),
+                          [](const Detection& d) { return d.label == "person"; }),
+            2);
+  auto labels = [&](const std::string& rel) {
+    std::map<std::string, float> best;
+    for (const Detection& d :
+         int8.detect(io::load_image(test::shared_data(rel).string(), io::ImageKind::kColor), 0)
+             .boxes) {
+      best[d.label] = std::max(best[d.label], d.score);
+    }
+    return best;
+  };
+  auto person = labels("images/person.jpg");
+  EXPECT_GT(person["person"], 0.9f);
+  EXPECT_GT(person["dog"], 0.5f);
+  auto dog = labels("images/dog.jpg");
+  EXPECT_GT(dog["dog"], 0.5f);
+  EXPECT_TRUE(dog.contains("bicycle"));
+  EXPECT_TRUE(dog.contains("car") || dog.contains("truck"));
+  EXPECT_TRUE(labels("images/horses.jpg").contains("horse"));
+  EXPECT_EQ(labels("images/000004.jpg").count("car"), 1u);
+  EXPECT_GT(labels("images/000230.jpg")["person"], 0.9f);
+}
+
+TEST(YoloFastestInt8, OptionsAreChecked) {
+  YoloFastestOptions o;
+  o.precision = YoloPrecision::kInt8;
+  std::string e = error_of([&] { YoloFastest(models_dir(), o); });
+  EXPECT_NE(e.find("'int8_calibration'"), std::string::npos) << e;
+  o.int8_calibration.push_back(Image{});
+  e = error_of([&] { YoloFastest(models_dir(), o); });
+  EXPECT_NE(e.find("'int8_calibration'"), std::string::npos) << e;
+  o.int8_calibration = {Image::allocate(8, 8, 3, PixelType::kU8)};
+  o.backend = YoloBackend::kOpenCv;
+  e = error_of([&] { YoloFastest(models_dir(), o); });
+  EXPECT_NE(e.find("'precision'"), std::string::npos) << e;
 }
 
 }  // namespace
