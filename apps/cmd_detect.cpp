@@ -24,6 +24,7 @@ struct DetectArgs {
   float nms = 0.45f;
   bool letterbox = false;
   std::string backend = "onednn";
+  std::string precision = "fp32";
   int threads = 1;
   std::string models_dir;
   std::string out;
@@ -47,7 +48,13 @@ void run_detect(const DetectArgs& a) {
   o.resize = a.letterbox ? detect::InputResize::kLetterbox : detect::InputResize::kStretch;
   o.backend = *detect::parse_yolo_backend(a.backend);  // CLI::IsMember checked it
   o.num_threads = a.threads;
-  detect::YoloFastest detector(a.models_dir.empty() ? detect::find_models_dir() : a.models_dir, o);
+  const std::string models = a.models_dir.empty() ? detect::find_models_dir() : a.models_dir;
+  if (a.precision == "int8") {
+    o.precision = detect::YoloPrecision::kInt8;
+    o.int8_calibration = detect::int8_calibration_images(
+        (std::filesystem::path(models) / ".." / ".." / "data").lexically_normal().string());
+  }
+  detect::YoloFastest detector(models, o);
 
   std::vector<detect::LabelledDetectionSet> results;
   for (const std::string& path : a.images) {
@@ -84,6 +91,10 @@ void setup_detect(CLI::App& app) {
   cmd->add_option("--backend", args->backend,
                   "onednn (default, about twice as fast on one core) or opencv (OpenCV DNN)")
       ->check(CLI::IsMember({"onednn", "opencv"}));
+  cmd->add_option("--precision", args->precision,
+                  "fp32 (default) or int8 (oneDNN only; about 25% faster, keeps about 97% of the "
+                  "fp32 boxes; calibrated on the shared data's vtest.avi and EuRoC frames)")
+      ->check(CLI::IsMember({"fp32", "int8"}));
   cmd->add_option("--conf", args->conf,
                   "minimum class score (with --backend opencv values below 0.2 act as 0.2)")
       ->check(CLI::Range(0.0, 1.0));
