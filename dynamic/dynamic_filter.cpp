@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 namespace kestrel::dynamic {
 namespace {
@@ -56,7 +57,40 @@ double homography_residual(const cv::Matx33d& H, const cv::Point2f& prev, const 
   return std::hypot(p[0] / p[2] - cur.x, p[1] / p[2] - cur.y);
 }
 
+int pyramid_levels(const DynamicFilterOptions& opt) {
+  return std::max({opt.lk_levels, opt.lk_backward_levels, 0});
+}
+
 }  // namespace
+
+struct FlowPyramid::Levels {
+  std::vector<cv::Mat> pyramid;  // image and gradient levels, as cv::buildOpticalFlowPyramid
+  int requested_levels = 0;      // levels above the image asked for (fewer on a small image)
+  int window = 0;
+  std::shared_ptr<const std::vector<std::uint8_t>> source;  // the pixels it was built from
+  int width = 0, height = 0;
+
+  bool built_from(const Image& im, int win, int lv) const {
+    return source == im.data && width == im.width && height == im.height && window == win &&
+           requested_levels == lv;
+  }
+};
+
+FlowPyramid build_flow_pyramid(const Image& gray, const DynamicFilterOptions& opt) {
+  if (gray.empty() || gray.channels != 1 || gray.type != PixelType::kU8) {
+    throw std::invalid_argument("build_flow_pyramid: the image must be 8-bit, one channel");
+  }
+  auto lv = std::make_shared<FlowPyramid::Levels>();
+  const cv::Size win(opt.lk_window, opt.lk_window);
+  lv->requested_levels = pyramid_levels(opt);
+  cv::buildOpticalFlowPyramid(as_mat(gray), lv->pyramid, win, lv->requested_levels, true,
+                              cv::BORDER_REFLECT_101, cv::BORDER_CONSTANT, false);
+  lv->window = opt.lk_window;
+  lv->source = gray.data;
+  lv->width = gray.width;
+  lv->height = gray.height;
+  return FlowPyramid{std::move(lv)};
+}
 
 const char* to_string(LabelReason r) {
   switch (r) {
@@ -185,29 +219,55 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
     return out;
   }
 
-  // 1. Flow from the current frame back to the previous one, forward-backward checked.
-  const cv::Mat prev = as_mat(*in.prev_gray);
-  const cv::Mat cur = as_mat(*in.cur_gray);
-  std::vector<cv::Point2f> pts_cur(n), pts_prev, pts_back;
+  // 1. Flow from the current frame back to the previous one, forward-backward checked, on
+  // pyramids built once per image (the previous one usually comes from the call before).
+  if (!in.prev_gray || !in.cur_gray) {
+    throw std::invalid_argument("classify_features: prev_gray and cur_gray are required");
+  }
+  const FlowPyramid cur_pyr = build_flow_pyramid(*in.cur_gray, opt);
+  const FlowPyramid prev_pyr =
+      in.prev_pyramid && !in.prev_pyramid->empty() &&
+              in.prev_pyramid->levels->built_from(*in.prev_gray, opt.lk_window, pyramid_levels(opt))
+          ? *in.prev_pyramid
+          : build_flow_pyramid(*in.prev_gray, opt);
+  if (in.cur_pyramid_out) *in.cur_pyramid_out = cur_pyr;
+  const int prev_cols = in.prev_gray->width, prev_rows = in.prev_gray->height;
+  std::vector<cv::Point2f> pts_cur(n), pts_prev(n), pts_back;
   for (std::size_t i = 0; i < n; ++i) {
     pts_cur[i] =
         cv::Point2f(static_cast<float>(in.points[i].x()), static_cast<float>(in.points[i].y()));
   }
+  // Initial flow: where the IMU rotation puts each point in the previous frame (the rotation
+  // homography's inverse, K R^T K^-1); without it, the point itself.
+  const int levels = opt.lk_levels;
+  int flags = 0;
+  if (in.R_cur_prev) {
+    const cv::Matx33d H_prev_cur = to_matx(in.K * in.R_cur_prev->transpose() * in.K.inverse());
+    for (std::size_t i = 0; i < n; ++i) {
+      const cv::Vec3d p = H_prev_cur * cv::Vec3d(pts_cur[i].x, pts_cur[i].y, 1.0);
+      pts_prev[i] = std::fabs(p[2]) > 1e-12 ? cv::Point2f(static_cast<float>(p[0] / p[2]),
+                                                          static_cast<float>(p[1] / p[2]))
+                                            : pts_cur[i];
+    }
+    flags = cv::OPTFLOW_USE_INITIAL_FLOW;
+  }
   std::vector<unsigned char> st1, st2;
-  std::vector<float> err;
   const cv::Size win(opt.lk_window, opt.lk_window);
-  const cv::TermCriteria term(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 20, 0.03);
-  cv::calcOpticalFlowPyrLK(cur, prev, pts_cur, pts_prev, st1, err, win, opt.lk_levels, term);
+  const cv::TermCriteria term(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, opt.lk_iterations,
+                              opt.lk_epsilon_px);
+  cv::calcOpticalFlowPyrLK(cur_pyr.levels->pyramid, prev_pyr.levels->pyramid, pts_cur, pts_prev,
+                           st1, cv::noArray(), win, levels, term, flags);
   pts_back = pts_cur;
-  cv::calcOpticalFlowPyrLK(prev, cur, pts_prev, pts_back, st2, err, win, opt.lk_levels, term,
+  cv::calcOpticalFlowPyrLK(prev_pyr.levels->pyramid, cur_pyr.levels->pyramid, pts_prev, pts_back,
+                           st2, cv::noArray(), win, std::min(opt.lk_backward_levels, levels), term,
                            cv::OPTFLOW_USE_INITIAL_FLOW);
   std::vector<bool> valid(n, false);
   for (std::size_t i = 0; i < n; ++i) {
     valid[i] = st1[i] && st2[i] &&
                std::hypot(pts_back[i].x - pts_cur[i].x, pts_back[i].y - pts_cur[i].y) <=
                    opt.fb_max_error_px &&
-               pts_prev[i].x >= 0 && pts_prev[i].y >= 0 && pts_prev[i].x < prev.cols &&
-               pts_prev[i].y < prev.rows;
+               pts_prev[i].x >= 0 && pts_prev[i].y >= 0 && pts_prev[i].x < prev_cols &&
+               pts_prev[i].y < prev_rows;
     out.tracked += valid[i] ? 1 : 0;
   }
 
