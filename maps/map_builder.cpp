@@ -1,6 +1,7 @@
 #include "maps/map_builder.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <numeric>
 
@@ -17,6 +18,72 @@ bool same_camera(const PinholeCamera& a, const PinholeCamera& b) {
 }
 
 }  // namespace
+
+double smoothed_depth(const Image& depth, int u, int v, int radius, double noise_z2,
+                      double depth_scale) {
+  const std::uint16_t centre = depth.row<std::uint16_t>(v)[u];
+  if (centre == 0 || radius <= 0) return centre;
+  const double z0 = centre / depth_scale;
+  const double tol = (2.5 * noise_z2 * z0 * z0 + 0.02) * depth_scale;
+  // Two passes: the neighbours near the centre's reading, then those near their mean. One pass
+  // keeps much of an outlying centre's error (its window is centred on the outlier).
+  double ref = centre;
+  for (int pass = 0; pass < 2; ++pass) {
+    double sum = 0.0;
+    int n = 0;
+    for (int y = std::max(0, v - radius); y <= std::min(depth.height - 1, v + radius); ++y) {
+      const auto* row = depth.row<std::uint16_t>(y);
+      for (int x = std::max(0, u - radius); x <= std::min(depth.width - 1, u + radius); ++x) {
+        if (row[x] == 0 || std::abs(static_cast<double>(row[x]) - ref) > tol) continue;
+        sum += row[x];
+        ++n;
+      }
+    }
+    if (n == 0) break;  // the second pass lost every reading: keep the first mean
+    ref = sum / n;
+  }
+  return ref;
+}
+
+void mark_unreachable_unknown(OccupancyGrid& g, const std::vector<Vec2>& seeds_xy,
+                              double seed_radius) {
+  const int w = g.width(), h = g.height();
+  std::vector<std::uint8_t> reached(g.cells().size(), 0);
+  std::vector<GridCell> stack;
+  const int r = static_cast<int>(std::ceil(seed_radius / g.resolution()));
+  for (const Vec2& xy : seeds_xy) {
+    // The nearest free cell within the radius (the cells under a camera are rarely seen).
+    const double fx = (xy.x() - g.origin().x()) / g.resolution();
+    const double fy = (xy.y() - g.origin().y()) / g.resolution();
+    if (!std::isfinite(fx) || !std::isfinite(fy)) continue;
+    const int cx = static_cast<int>(std::floor(fx)), cy = static_cast<int>(std::floor(fy));
+    double best = 1e18;
+    GridCell seed{-1, -1};
+    for (int y = std::max(0, cy - r); y <= std::min(h - 1, cy + r); ++y)
+      for (int x = std::max(0, cx - r); x <= std::min(w - 1, cx + r); ++x) {
+        const double d2 = double(x - cx) * (x - cx) + double(y - cy) * (y - cy);
+        if (d2 <= double(r) * r && d2 < best && g.at({x, y}) == kFree) {
+          best = d2;
+          seed = {x, y};
+        }
+      }
+    if (seed.x < 0 || reached[g.index(seed)]) continue;
+    reached[g.index(seed)] = 1;
+    stack.push_back(seed);
+    while (!stack.empty()) {
+      const GridCell c = stack.back();
+      stack.pop_back();
+      const GridCell next[4] = {{c.x + 1, c.y}, {c.x - 1, c.y}, {c.x, c.y + 1}, {c.x, c.y - 1}};
+      for (const GridCell& n : next) {
+        if (!g.contains(n) || reached[g.index(n)] || g.at(n) != kFree) continue;
+        reached[g.index(n)] = 1;
+        stack.push_back(n);
+      }
+    }
+  }
+  for (std::size_t i = 0; i < g.cells().size(); ++i)
+    if (g.cells()[i] == kFree && !reached[i]) g.cells()[i] = kUnknown;
+}
 
 std::vector<std::uint8_t> static_mask_from_boxes(int width, int height,
                                                  const std::vector<MapBoxRegion>& boxes,
@@ -69,7 +136,7 @@ std::size_t MapBuilder::insert(const MapKeyframe& kf) {
   const float zmax = static_cast<float>(options_.max_depth);
   const float far_margin = static_cast<float>(options_.far_ray_margin);
 
-  std::vector<Eigen::Vector3f> hits, far_rays;
+  std::vector<Eigen::Vector3f> hits, carve_ends, far_rays;
   hits.reserve(n / (options_.octree_stride * options_.octree_stride) + 1);
   const int cs = std::max(1, options_.cloud_stride);
   const int os = std::max(1, options_.octree_stride);
@@ -83,8 +150,11 @@ std::size_t MapBuilder::insert(const MapKeyframe& kf) {
       if (!for_cloud && !for_octo) continue;
       const std::size_t i = static_cast<std::size_t>(v) * w + u;
       if (has_mask && (*kf.static_mask)[i] == 0) continue;
-      const float z = drow[u] * inv_scale;
-      if (drow[u] == 0 || z < zmin) continue;
+      if (drow[u] == 0) continue;
+      const float z = static_cast<float>(smoothed_depth(*kf.depth, u, v, options_.smooth_radius,
+                                                        options_.depth_noise_z2, kf.depth_scale) *
+                                         inv_scale);
+      if (z < zmin) continue;
       const Eigen::Vector3f pw = R * (rays[i].cast<float>() * z) + t;
       if (z > zmax) {
         // Too far to trust as a surface, still evidence that the space well in front of it is
@@ -92,7 +162,10 @@ std::size_t MapBuilder::insert(const MapKeyframe& kf) {
         if (for_octo) far_rays.push_back(R * (rays[i].cast<float>() * (z - far_margin)) + t);
         continue;
       }
-      if (for_octo) hits.push_back(pw);
+      if (for_octo) {
+        hits.push_back(pw);
+        carve_ends.push_back(carve_end(kf, u, v, z, pw, t));
+      }
       if (for_cloud) {
         std::uint8_t r = 200, g = 200, b = 200;
         if (has_color) {
@@ -110,9 +183,46 @@ std::size_t MapBuilder::insert(const MapKeyframe& kf) {
     }
   }
   const Vec3 origin = kf.T_w_c.translation();
+  camera_xy_.push_back(origin.head<2>());
   if (!far_rays.empty()) octree_.insert_free_rays(origin, far_rays);
-  octree_.insert_scan(origin, hits);
+  octree_.insert_scan(origin, hits, carve_ends);
   return hits.size();
+}
+
+Eigen::Vector3f MapBuilder::carve_end(const MapKeyframe& kf, int u, int v, float z,
+                                      const Eigen::Vector3f& p_w,
+                                      const Eigen::Vector3f& o_w) const {
+  const double margin_max = options_.grazing_max_margin;
+  const double clearance = options_.grazing_clearance * options_.octree.resolution;
+  if (!(margin_max > 0.0) || !(clearance > 0.0)) return p_w;
+  // The surface's normal from the readings a few pixels around (u, v), when they lie on the
+  // same surface; else the full clearance along the ray (an edge: no surface to keep).
+  const int k = std::max(1, options_.octree_stride / 2);
+  const int w = kf.camera.width, h = kf.camera.height;
+  if (u - k < 0 || v - k < 0 || u + k >= w || v + k >= h) return p_w;
+  const double scale = kf.depth_scale;
+  // Same surface: within the noise plus what a surface at up to 84 degrees (tan 10) adds.
+  const double tol =
+      (3.0 * options_.depth_noise_z2 * z * z + 0.02 + 10.0 * z * k / kf.camera.fx) * scale;
+  Vec3 q[4];
+  const int du[4] = {-k, k, 0, 0}, dv[4] = {0, 0, -k, k};
+  for (int i = 0; i < 4; ++i) {
+    const std::uint16_t raw = kf.depth->row<std::uint16_t>(v + dv[i])[u + du[i]];
+    if (raw == 0 || std::abs(raw - z * scale) > tol) return p_w;
+    const double zi = smoothed_depth(*kf.depth, u + du[i], v + dv[i], options_.smooth_radius,
+                                     options_.depth_noise_z2, scale) /
+                      scale;
+    q[i] = kf.camera.unproject(Vec2(u + du[i], v + dv[i])) * zi;
+  }
+  const Vec3 n = (q[1] - q[0]).cross(q[3] - q[2]);
+  const Vec3 ray = kf.camera.unproject(Vec2(u, v));
+  if (!(n.norm() > 0.0)) return p_w;
+  const double cos_incidence = std::abs(n.dot(ray)) / (n.norm() * ray.norm());
+  const double margin = std::min(margin_max, clearance / std::max(cos_incidence, 1e-3));
+  const Eigen::Vector3f d = p_w - o_w;
+  const float len = d.norm();
+  if (!(len > 0.0f)) return p_w;
+  return o_w + d * std::max(0.0f, 1.0f - static_cast<float>(margin) / len);
 }
 
 std::vector<CloudPoint> MapBuilder::clean_cloud() const {
@@ -125,7 +235,11 @@ std::vector<CloudPoint> MapBuilder::clean_cloud() const {
 }
 
 OccupancyGrid MapBuilder::grid() const {
-  return octree_.project(options_.grid_z_min, options_.grid_z_max);
+  OccupancyGrid g =
+      octree_.project(options_.grid_z_min, options_.grid_z_max, options_.grid_free_clearance);
+  if (g.empty() || !(options_.reachable_seed_radius > 0.0)) return g;
+  mark_unreachable_unknown(g, camera_xy_, options_.reachable_seed_radius);
+  return g;
 }
 
 void MapBuilder::write_outputs(const std::string& dir) const {

@@ -22,9 +22,30 @@ struct MapBuilderOptions {
   double min_depth = 0.3;       // metres; nearer readings are ignored
   double max_depth = 7.0;       // metres; farther readings only carve free space
   double far_ray_margin = 0.5;  // metres short of such a far reading
+  // Depth noise is per pixel (sigma = depth_noise_z2 x depth^2, 15 cm at 7 m for a D455-like
+  // sensor): every sampled reading is averaged with its (2r+1)^2 neighbours that lie on the
+  // same surface (within 2.5 sigma + 2 cm), which divides the noise by up to 2r+1. Unsmoothed,
+  // a far wall's hits scatter over several voxels behind it that no ray ever carves.
+  int smooth_radius = 2;          // 0: raw readings
+  double depth_noise_z2 = 0.003;  // the sensor's depth sigma / depth^2
+  // A ray stops carving free space where it comes within this many voxels of its surface
+  // (measured across the surface, whose normal comes from the depth around the pixel): at a
+  // grazing angle that is long before the end point, so a table top or a seat seen from afar
+  // is not cleared by the rays that land on it. Capped at grazing_max_margin metres.
+  double grazing_clearance = 1.0;   // voxels
+  double grazing_max_margin = 1.0;  // metres
   OctreeOptions octree;
   double grid_z_min = 0.10;  // height band (world z, metres) projected into the 2D grid:
   double grid_z_max = 1.60;  // above the floor, up to what a ground robot can hit
+  // Free cells of the grid that no path through free cells (4-connected) joins to where a
+  // camera has been are unknown, not free: space seen only under or inside something (rays
+  // under a parked car's body carve the band's lower voxels, and the band above them is never
+  // seen from a low camera) is no place a robot can go, and its floor says nothing of what is
+  // above. A camera's nearest free cell within this radius (metres) seeds the fill; 0: off.
+  double reachable_seed_radius = 3.0;
+  // A cell is free only when its band is seen free over this height from the band's base:
+  // room for a robot's body, not only a gap under something (a car's body 0.3 m up).
+  double grid_free_clearance = 0.4;  // metres (0.1..0.5 m up); 0: any free voxel of the band
 };
 
 struct MapKeyframe {
@@ -44,6 +65,19 @@ struct MapBoxRegion {  // a pixel box (max exclusive), e.g. a moving detection
 };
 
 // width*height mask, 1 everywhere except inside the boxes (grown by `margin` pixels).
+// The depth (depth units) at (u, v) averaged with its neighbours within `radius` pixels that
+// hold a reading within 2.5 sigma + 2 cm of it (sigma = noise_z2 x depth^2), then again with
+// those within that of the first mean; 0 where (u, v) has no reading. Neighbours on another
+// surface (across a depth edge) are left out.
+double smoothed_depth(const Image& depth, int u, int v, int radius, double noise_z2,
+                      double depth_scale);
+
+// Free cells of g that no 4-connected path of free cells joins to a seed become unknown. Each
+// seed point starts the fill at its nearest free cell within seed_radius metres (none: it
+// seeds nothing).
+void mark_unreachable_unknown(OccupancyGrid& g, const std::vector<Vec2>& seeds_xy,
+                              double seed_radius);
+
 std::vector<std::uint8_t> static_mask_from_boxes(int width, int height,
                                                  const std::vector<MapBoxRegion>& boxes,
                                                  int margin = 4);
@@ -61,6 +95,8 @@ class MapBuilder {
   // Cloud points whose voxel the OctoMap still holds occupied or has never seen: points of a
   // mover that was not masked are dropped once later rays have carved through them.
   std::vector<CloudPoint> clean_cloud() const;
+  // The 2D grid of the height band; free cells no camera could reach are unknown
+  // (options.reachable_seed_radius).
   OccupancyGrid grid() const;
 
   // DIR/cloud.ply, DIR/octomap.bt, DIR/map.pgm + DIR/map.yaml. Creates DIR.
@@ -68,12 +104,17 @@ class MapBuilder {
 
  private:
   const std::vector<Vec3>& rays_for(const PinholeCamera& camera);
+  // Where the free-space carving of the ray to pixel (u, v) (depth z, world point p_w, camera
+  // centre o_w) stops: grazing_clearance voxels across the surface short of it.
+  Eigen::Vector3f carve_end(const MapKeyframe& kf, int u, int v, float z,
+                            const Eigen::Vector3f& p_w, const Eigen::Vector3f& o_w) const;
 
   MapBuilderOptions options_;
   OccupancyOctree octree_;
   VoxelCloud cloud_;
   PinholeCamera ray_camera_;
-  std::vector<Vec3> rays_;  // unprojected pixel rays (z = 1), cached per camera
+  std::vector<Vec3> rays_;       // unprojected pixel rays (z = 1), cached per camera
+  std::vector<Vec2> camera_xy_;  // where the keyframes were taken (world x, y)
 };
 
 }  // namespace kestrel::maps

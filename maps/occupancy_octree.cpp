@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <fstream>
 #include <limits>
 
@@ -38,6 +39,32 @@ void OccupancyOctree::insert_scan(const Vec3& origin,
   // discretize: one ray per end voxel, which is what keeps a keyframe under a few ms.
   impl_->tree.insertPointCloud(cloud, o, options_.max_range, /*lazy_eval=*/false,
                                /*discretize=*/true);
+}
+
+void OccupancyOctree::insert_scan(const Vec3& origin, const std::vector<Eigen::Vector3f>& points_w,
+                                  const std::vector<Eigen::Vector3f>& carve_ends_w) {
+  if (carve_ends_w.size() != points_w.size()) return insert_scan(origin, points_w);
+  auto& t = impl_->tree;
+  const octomap::point3d o(static_cast<float>(origin.x()), static_cast<float>(origin.y()),
+                           static_cast<float>(origin.z()));
+  octomap::KeySet free_cells, occupied_cells;
+  octomap::KeyRay ray;
+  const auto max_range = static_cast<float>(options_.max_range);
+  for (std::size_t i = 0; i < points_w.size(); ++i) {
+    const octomap::point3d p(points_w[i].x(), points_w[i].y(), points_w[i].z());
+    octomap::point3d end(carve_ends_w[i].x(), carve_ends_w[i].y(), carve_ends_w[i].z());
+    if ((p - o).norm() <= max_range) {
+      octomap::OcTreeKey k;
+      if (t.coordToKeyChecked(p, k)) occupied_cells.insert(k);
+    }
+    const octomap::point3d d = end - o;
+    if (d.norm() > max_range) end = o + d * (max_range / d.norm());
+    if (t.computeRayKeys(o, end, ray)) free_cells.insert(ray.begin(), ray.end());
+  }
+  for (const auto& k : free_cells)
+    if (!occupied_cells.count(k)) t.updateNode(k, false, true);
+  for (const auto& k : occupied_cells) t.updateNode(k, true, true);
+  t.updateInnerOccupancy();
 }
 
 void OccupancyOctree::insert_free_rays(const Vec3& origin,
@@ -86,7 +113,7 @@ std::vector<Vec3> OccupancyOctree::occupied_voxels() const {
 
 std::size_t OccupancyOctree::leaf_count() const { return impl_->tree.getNumLeafNodes(); }
 
-OccupancyGrid OccupancyOctree::project(double z_min, double z_max) const {
+OccupancyGrid OccupancyOctree::project(double z_min, double z_max, double free_clearance) const {
   const auto& t = impl_->tree;
   const double res = t.getResolution();
   double x0, y0, z0, x1, y1, z1;
@@ -99,6 +126,11 @@ OccupancyGrid OccupancyOctree::project(double z_min, double z_max) const {
   const int w = static_cast<int>(std::ceil((x1 - ox) / res - 1e-6));
   const int h = static_cast<int>(std::ceil((y1 - oy) / res - 1e-6));
   OccupancyGrid grid(w, h, res, Vec2(ox, oy), kUnknown);
+  // Per cell, which voxel layers of the band's lowest free_clearance metres are seen free.
+  const int layers = std::clamp(static_cast<int>(std::ceil(free_clearance / res - 1e-6)), 0, 31);
+  const std::uint32_t all_layers = (std::uint32_t{1} << layers) - 1;
+  std::vector<std::uint32_t> free_layers(layers > 0 ? grid.cells().size() : 0, 0);
+  const double band_base = std::floor(z_min / res + 0.5) * res;
   for (auto it = t.begin_leafs(), end = t.end_leafs(); it != end; ++it) {
     const double size = it.getSize();
     const octomap::point3d c = it.getCoordinate();
@@ -114,13 +146,21 @@ OccupancyGrid OccupancyOctree::project(double z_min, double z_max) const {
       for (int i = 0; i < n; ++i) {
         const GridCell cell{cx0 + i, cy0 + j};
         if (!grid.contains(cell)) continue;
-        if (occ)
+        if (occ) {
           grid.set(cell, kOccupied);
-        else if (grid.at(cell) == kUnknown)
+        } else if (layers > 0) {
+          // The voxel's layers from the band's base, clipped to the clearance.
+          const int l0 = static_cast<int>(std::floor((c.z() - size / 2 - band_base) / res + 0.5));
+          for (int l = std::max(0, l0); l < std::min(layers, l0 + n); ++l)
+            free_layers[grid.index(cell)] |= std::uint32_t{1} << l;
+        } else if (grid.at(cell) == kUnknown) {
           grid.set(cell, kFree);
+        }
       }
     }
   }
+  for (std::size_t i = 0; i < free_layers.size(); ++i)
+    if (grid.cells()[i] == kUnknown && free_layers[i] == all_layers) grid.cells()[i] = kFree;
   return grid;
 }
 

@@ -31,6 +31,12 @@ class OccupancyOctree {
   const OctreeOptions& options() const { return options_; }
   // One scan: end points in the world frame, all seen from `origin`.
   void insert_scan(const Vec3& origin, const std::vector<Eigen::Vector3f>& points_w);
+  // The same, with free space carved along ray i only up to carve_ends_w[i] (a point on the
+  // segment origin..points_w[i]): a ray that meets its surface at a grazing angle runs within a
+  // voxel of it for a long way, and carving all of it clears the surface's own voxels.
+  // Voxels holding an end point of this scan are never carved by it.
+  void insert_scan(const Vec3& origin, const std::vector<Eigen::Vector3f>& points_w,
+                   const std::vector<Eigen::Vector3f>& carve_ends_w);
   // Only free space along rays that hit nothing measurable (no end point is marked).
   void insert_free_rays(const Vec3& origin, const std::vector<Eigen::Vector3f>& ends_w);
 
@@ -41,8 +47,9 @@ class OccupancyOctree {
   std::size_t leaf_count() const;
 
   // The 2D grid of a height band: a cell is occupied when an occupied voxel in [z_min, z_max]
-  // lies above it, free when only free voxels of the band do, unknown otherwise.
-  OccupancyGrid project(double z_min, double z_max) const;
+  // lies above it, free when only free voxels of the band do and they fill the band's lowest
+  // `free_clearance` metres (0: any free voxel will do), unknown otherwise.
+  OccupancyGrid project(double z_min, double z_max, double free_clearance = 0.0) const;
 
   void write_binary(const std::string& path) const;  // .bt, octovis/octomap_server read it
   static OccupancyOctree read_binary(const std::string& path);
