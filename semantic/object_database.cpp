@@ -361,9 +361,19 @@ std::vector<ObjectDatabase::Measurement> ObjectDatabase::measure_all(
     // median depth belong to something else. The detection bounds the object in the image.
     const double width_m = (box.x1 - box.x0) * ci.depth / kf.camera.fx;
     const double keep = std::max(options_.min_depth_extent, options_.depth_extent_factor * width_m);
+    // Only where another static box claims the pixel, though: an object seen end-on (a bench,
+    // a parked car) is far deeper than its box is wide, and nothing else is there to explain
+    // its far end.
+    auto in_other_box = [&](const Eigen::Vector2i& p) {
+      for (std::size_t o = 0; o < boxes.size(); ++o)
+        if (o != b && inside(to_box(*boxes[o]), p, s)) return true;
+      return false;
+    };
     std::vector<Eigen::Vector3f> members;
     for (int i : chosen[b])
-      if (std::abs(pts[i].z() - ci.depth) <= keep) members.push_back(pts[i]);
+      if (std::abs(pts[i].z() - ci.depth) <= keep ||
+          (options_.extend_past_depth_extent && !in_other_box(px[i])))
+        members.push_back(pts[i]);
     if (static_cast<int>(members.size()) < options_.min_cluster_points) continue;
     Measurement m;
     m.label = det.label;

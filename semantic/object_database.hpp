@@ -32,14 +32,15 @@ struct ObjectDatabaseOptions {
   int smooth_radius = 2;            // depth averaged over (2r+1)^2 neighbours on one surface
   float cluster_tolerance = 0.06f;  // metres between surfaces of one cluster
   int min_cluster_points = 30;
-  double min_iou = 0.5;               // cluster footprint vs detection box
-  double iou_tie = 0.15;              // footprints this close in IoU: the nearer cluster wins
-  double max_depth_rms = 0.6;         // metres, spread of a cluster's depth about its median
-  double depth_extent_factor = 0.75;  // keep cluster points within this x box width (metres)
-  double min_depth_extent = 0.25;     // ... or this, of the cluster's median depth
-  double min_box_pixels = 400;        // smaller boxes are too far or too cut to measure
-  double border_margin = -1.0;        // pixels; >= 0: boxes reaching the border are not measured
-  double point_voxel = 0.03;          // metres, an observation's points are thinned to this
+  double min_iou = 0.5;                  // cluster footprint vs detection box
+  double iou_tie = 0.15;                 // footprints this close in IoU: the nearer cluster wins
+  double max_depth_rms = 0.6;            // metres, spread of a cluster's depth about its median
+  double depth_extent_factor = 0.75;     // keep cluster points within this x box width (metres)
+  double min_depth_extent = 0.25;        // ... or this, of the cluster's median depth
+  bool extend_past_depth_extent = true;  // ... unless no other box holds the pixel
+  double min_box_pixels = 400;           // smaller boxes are too far or too cut to measure
+  double border_margin = -1.0;           // pixels; >= 0: boxes reaching the border are not measured
+  double point_voxel = 0.03;             // metres, an observation's points are thinned to this
   int max_points_per_observation = 600;
   int max_observations_kept = 60;  // per object, the latest ones
   double floor_margin = 0.04;      // metres above the floor estimate that count as floor

@@ -232,3 +232,34 @@ TEST(ObjectDatabase, BadInputIsIgnoredNotThrown) {
   kf.static_boxes.push_back({});
   EXPECT_EQ(db.update(kf).boxes, 0);
 }
+
+// A bench seen end-on is 2 m deep and 0.5 m wide in its box: its far end lies well past the
+// depth extent that a box's width allows (what keeps the table behind a tucked-in chair out of
+// the chair), but no other box claims those pixels, so they are the bench's.
+TEST(ObjectDatabase, AnObjectSeenEndOnKeepsItsFarEnd) {
+  const AxisBox bench{Vec3(1.5, -0.25, 0.0), Vec3(3.5, 0.25, 0.5)};
+  auto length = [&](bool extend) {
+    ObjectDatabaseOptions opt;
+    opt.extend_past_depth_extent = extend;
+    ObjectDatabase db(opt);
+    const PinholeCamera cam = camera();
+    for (int k = 0; k < 4; ++k) {
+      // Low and to one side: its end and one long side face the camera.
+      const SE3 T = look_at(Vec3(0.0, 0.8 + 0.05 * k, 0.6), Vec3(2.5, 0.0, 0.25));
+      const Image depth = render(cam, T, {bench});
+      ObjectKeyframe kf;
+      kf.keyframe_id = k;
+      kf.T_w_c = T;
+      kf.stamp = from_seconds(k);
+      kf.depth = &depth;
+      kf.camera = cam;
+      kf.static_boxes.push_back(box_of(cam, T, bench, "bench"));
+      db.update(kf);
+    }
+    const auto objs = db.objects();
+    EXPECT_EQ(objs.size(), 1u) << extend;
+    return objs.empty() ? 0.0 : objs.front().box.size.x();
+  };
+  EXPECT_LT(length(false), 1.2);
+  EXPECT_NEAR(length(true), 2.0, 0.25);
+}

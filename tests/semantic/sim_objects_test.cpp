@@ -54,10 +54,10 @@ TEST(SimObjects, CafeObjectsAndGridMatchTheWorld) {
 }
 
 // market and ugv-loop, objects only (the grids are checked elsewhere). market meets issue 6's
-// recall, precision, class and size bounds; its centre error median is 0.114 m against 0.10
-// (the plants and a table are seen from two sides only). ugv-loop: the bench and one car are
-// seen end-on or cut by the border and miss the 0.5 m gate (recall and precision 0.60), the
-// matched objects are within 0.16 m.
+// recall, precision, class, size and centre bounds (centre error median 0.071 m; 0.114 before
+// objects seen end-on kept their far end). ugv-loop: the car parked nose to the building is
+// measured 3.2 of its 4.2 m long (its front is never ranged) and misses the 0.5 m gate by
+// 3 cm, so recall and precision are 0.80; the bench, seen end-on, is matched within 5 cm.
 TEST(SimObjects, MarketAndUgvLoopObjects) {
   for (const std::string name : {"market", "ugv-loop"}) {
     pipeline::SimObjectRunOptions o;
@@ -71,11 +71,11 @@ TEST(SimObjects, MarketAndUgvLoopObjects) {
       EXPECT_GE(s.truth, 7);
       EXPECT_GE(s.recall, 0.9);
       EXPECT_GE(s.precision, 0.9);
-      EXPECT_LE(s.center_error_median, 0.13);
+      EXPECT_LE(s.center_error_median, 0.10);
     } else {
       EXPECT_GE(s.truth, 5);
-      EXPECT_GE(s.recall, 0.6);
-      EXPECT_GE(s.precision, 0.6);
+      EXPECT_GE(s.recall, 0.8);
+      EXPECT_GE(s.precision, 0.8);
       EXPECT_LE(s.center_error_median, 0.20);
     }
   }
