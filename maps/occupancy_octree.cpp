@@ -47,24 +47,26 @@ void OccupancyOctree::insert_scan(const Vec3& origin, const std::vector<Eigen::V
   auto& t = impl_->tree;
   const octomap::point3d o(static_cast<float>(origin.x()), static_cast<float>(origin.y()),
                            static_cast<float>(origin.z()));
-  octomap::KeySet free_cells, occupied_cells;
+  octomap::KeySet free_cells, occupied_cells, end_voxels;
   octomap::KeyRay ray;
   const auto max_range = static_cast<float>(options_.max_range);
   for (std::size_t i = 0; i < points_w.size(); ++i) {
     const octomap::point3d p(points_w[i].x(), points_w[i].y(), points_w[i].z());
     octomap::point3d end(carve_ends_w[i].x(), carve_ends_w[i].y(), carve_ends_w[i].z());
-    if ((p - o).norm() <= max_range) {
-      octomap::OcTreeKey k;
-      if (t.coordToKeyChecked(p, k)) occupied_cells.insert(k);
-    }
+    // One ray per end voxel (as insertPointCloud's discretize): rays ending in one voxel
+    // carve nearly the same cells, and casting each would double a keyframe's time.
+    octomap::OcTreeKey k;
+    if (!t.coordToKeyChecked(p, k)) continue;
+    if ((p - o).norm() <= max_range && !occupied_cells.insert(k).second) continue;
+    if (!end_voxels.insert(k).second) continue;
     const octomap::point3d d = end - o;
     if (d.norm() > max_range) end = o + d * (max_range / d.norm());
     if (t.computeRayKeys(o, end, ray)) free_cells.insert(ray.begin(), ray.end());
   }
   for (const auto& k : free_cells)
-    if (!occupied_cells.count(k)) t.updateNode(k, false, true);
-  for (const auto& k : occupied_cells) t.updateNode(k, true, true);
-  t.updateInnerOccupancy();
+    if (!occupied_cells.count(k)) t.updateNode(k, false, false);
+  // Not lazy: updateInnerOccupancy walks the whole tree, which grows with the map.
+  for (const auto& k : occupied_cells) t.updateNode(k, true, false);
 }
 
 void OccupancyOctree::insert_free_rays(const Vec3& origin,
