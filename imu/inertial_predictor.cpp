@@ -20,6 +20,14 @@ void InertialPredictor::add_samples(std::span<const ImuSample> samples) {
   for (const ImuSample& s : samples) {
     if (!imu_.empty() && s.t <= imu_.back().t) continue;
     if (!s.gyro.allFinite() || !s.acc.allFinite()) continue;
+    if (att_R_ && !imu_.empty() && s.t > att_t_) {
+      // Midpoint rule from the attitude's stamp (a fix may sit between two samples).
+      const ImuSample& p = imu_.back();
+      const double dt = to_seconds(s.t - std::max(p.t, att_t_));
+      const Vec3 w = 0.5 * (p.gyro + s.gyro) - bias_.gyro;
+      att_R_ = *att_R_ * SO3::exp(w * dt);
+      att_t_ = s.t;
+    }
     imu_.push_back(s);
   }
   if (imu_.empty()) return;
@@ -51,6 +59,9 @@ void InertialPredictor::add_fix(Timestamp t, const SE3& T_w_b) {
   if (!T_w_b.is_finite()) return;
   if (!fixes_.empty() && t <= fixes_.back().t) return;
   fixes_.push_back({t, T_w_b});
+  att_R_ = T_w_b.so3();
+  att_t_ = t;
+  att_fix_t_ = t;
   const Timestamp keep = from_seconds(std::max(options_.velocity_window_s, options_.bias_window_s));
   while (fixes_.size() > 2 && fixes_.back().t - fixes_[1].t >= keep) fixes_.pop_front();
   if (bias_updated_at_ == 0) bias_updated_at_ = fixes_.front().t;
@@ -203,6 +214,11 @@ void InertialPredictor::update_velocity() {
     v_last_ = v_k;
     v_fix_ = k;
   }
+}
+
+std::optional<InertialPredictor::Attitude> InertialPredictor::attitude() const {
+  if (!att_R_) return std::nullopt;
+  return Attitude{*att_R_, att_t_, to_seconds(att_t_ - att_fix_t_)};
 }
 
 std::optional<InertialPrediction> InertialPredictor::predict(Timestamp t) const {

@@ -70,6 +70,16 @@ class InertialPredictor {
   // the IMU does not reach t, or the last fix is more than max_gap_s old.
   std::optional<InertialPrediction> predict(Timestamp t) const;
 
+  // Attitude of the body at the newest sample, the newest fix's rotation carried on by the gyro
+  // alone. Unlike predict() it has no time limit: over seconds the gyro drifts by hundredths of
+  // a degree, enough to tell a look-alike place seen the other way round.
+  struct Attitude {
+    SO3 R_w_b;
+    Timestamp t = 0;
+    double since_fix_s = 0.0;
+  };
+  std::optional<Attitude> attitude() const;
+
   // World gravity, when the world is not the z-up one the options assume.
   void set_gravity(const Vec3& g) { options_.gravity = g; }
 
@@ -106,6 +116,10 @@ class InertialPredictor {
   Timestamp bias_updated_at_ = 0;  // stamp of the newest fix the biases have seen
   std::optional<Vec3> v_last_;
   Fix v_fix_{0, SE3()};  // the fix v_last_ belongs to
+  // Gyro-propagated attitude (attitude()); nothing before the first fix.
+  std::optional<SO3> att_R_;
+  Timestamp att_t_ = 0;
+  Timestamp att_fix_t_ = 0;
 };
 
 }  // namespace kestrel::imu

@@ -487,6 +487,13 @@ struct System::Impl {
     const std::optional<tracking::MotionPrior> prior = inertial_prediction(frame.t);
     std::optional<SE3> predicted;
     if (prior) predicted = prior->T_w_c;
+    std::optional<SO3> attitude;
+    if (!prior && inertial && gravity_known) {
+      if (const auto a = predictor.attitude()) {
+        attitude = a->R_w_b * calib.T_body_camera.so3();
+      }
+    }
+    tracker.set_attitude_hint(attitude);
     t0 = Clock::now();
     const tracking::TrackResult tr = prior && options.inertial_prior
                                          ? tracker.track(std::move(features), *prior, &keep)

@@ -1,6 +1,7 @@
 #include "tracking/feature_extractor.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <numeric>
 #include <opencv2/features2d.hpp>
@@ -105,6 +106,29 @@ bool depth_is_smooth(const Image& depth, int u, int v, double raw, double ratio)
   return true;
 }
 
+// A dim, low-contrast image (a dark corridor, an underexposed frame) is stretched linearly
+// so that its 1st..99th percentile spans the 8-bit range: FAST's fixed threshold then asks
+// the same relative contrast of it as of a well-lit one. Well-exposed images are left exactly
+// as they are (their corners and descriptors do not change).
+cv::Mat stretch_if_dim(const cv::Mat& grey, const FeatureExtractorOptions& o) {
+  std::array<int, 256> hist{};
+  int total = 0;
+  for (int y = 0; y < grey.rows; y += 2) {  // every 4th pixel is plenty for percentiles
+    const std::uint8_t* r = grey.ptr<std::uint8_t>(y);
+    for (int x = 0; x < grey.cols; x += 2, ++total) ++hist[r[x]];
+  }
+  const int tail = std::max(1, total / 100);
+  int lo = 0;
+  for (int acc = 0; lo < 255 && (acc += hist[static_cast<std::size_t>(lo)]) < tail;) ++lo;
+  int hi = 255;
+  for (int acc = 0; hi > 0 && (acc += hist[static_cast<std::size_t>(hi)]) < tail;) --hi;
+  const double gain = std::min(o.dim_max_gain, 255.0 / std::max(1, hi - lo));
+  if (gain < o.dim_min_gain) return grey;
+  cv::Mat out;
+  grey.convertTo(out, CV_8U, gain, -gain * lo);
+  return out;
+}
+
 void check_same_size(const Image& a, const Image& b, const char* what) {
   if (a.width != b.width || a.height != b.height) {
     throw std::invalid_argument(std::string("FeatureExtractor: ") + what + " is " +
@@ -128,6 +152,7 @@ FrameFeatures FeatureExtractor::extract(const Image& image, const Image* ignore,
     cv::cvtColor(grey, g, cv::COLOR_BGR2GRAY);
     grey = g;
   }
+  if (options_.dim_max_gain > 1.0) grey = stretch_if_dim(grey, options_);
   cv::Mat mask;
   if (ignore && !ignore->empty()) {
     check_same_size(image, *ignore, "ignore mask");

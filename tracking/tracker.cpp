@@ -228,6 +228,15 @@ TrackResult Tracker::track(FrameFeatures f, const std::optional<SE3>& predicted,
       res.relocalization_rejected = true;
     }
   }
+  if (ok && relocalizing && !predicted && attitude_hint_ &&
+      options_.relocalize_max_prediction_rad > 0.0) {
+    // The position is long unknown, the gyro's attitude is not: a corridor seen the other way
+    // round, a symmetric hall, look alike only with the camera turned.
+    if ((pose.T_c_w.so3() * *attitude_hint_).angle() > options_.relocalize_max_prediction_rad) {
+      ok = false;
+      res.relocalization_rejected = true;
+    }
+  }
   res.matches = m.count;
   res.inliers = ok ? pose.inliers : 0;
   if (!ok && relocalizing && predicted && options_.bridge_after_lost_frames > 0 &&

@@ -105,6 +105,11 @@ class Tracker {
  public:
   explicit Tracker(const PinholeCamera& camera, const TrackerOptions& options = {});
 
+  // The IMU's attitude of the camera for the coming frames while its full prediction is stale
+  // (lost for longer than the IMU can carry the position): a relocalization must still agree
+  // with it within relocalize_max_prediction_rad. nullopt: no attitude check.
+  void set_attitude_hint(const std::optional<SO3>& R_w_c) { attitude_hint_ = R_w_c; }
+
   // Pose of the first frame (identity unless set before it).
   void set_initial_pose(const SE3& T_w_c) { initial_T_w_c_ = T_w_c; }
 
@@ -165,6 +170,7 @@ class Tracker {
   SE3 last_T_w_c_;
   std::optional<SE3> velocity_;        // T_prev_cur of the last two good frames
   std::optional<SE3> coast_velocity_;  // velocity_ when the track was lost
+  std::optional<SO3> attitude_hint_;   // set_attitude_hint()
   int lost_frames_ = 0;                // frames since the track was lost
   mapping::KeyframeId reference_kf_ = -1;
   mapping::KeyframeId last_kf_ = -1;

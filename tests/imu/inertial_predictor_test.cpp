@@ -113,6 +113,35 @@ TEST(InertialPredictor, RefusesBeyondTheImuAndTheGap) {
   EXPECT_FALSE(q.predict(from_seconds(t_last + 0.1)));
 }
 
+// Long after the pose is refused (max_gap_s), the gyro alone still knows which way the body
+// faces: what tells a look-alike place seen the other way round from the real one.
+TEST(InertialPredictor, AttitudeOutlivesThePrediction) {
+  Motion m;
+  m.gyro_bias = Vec3(0.004, -0.003, 0.005);
+  const double t_fix = 4.0;
+  InertialPredictor p = run(m, t_fix, 0.005, 5e-4, 6, t_fix + 8.0);
+  const double t_last = std::floor(t_fix * kFrameRate) / kFrameRate;
+  EXPECT_FALSE(p.predict(from_seconds(t_last + 8.0))) << "past max_gap_s";
+  const auto a = p.attitude();
+  ASSERT_TRUE(a.has_value());
+  EXPECT_NEAR(a->since_fix_s, 8.0, 0.01);
+  const double t = to_seconds(a->t);
+  const double e = (a->R_w_b.inverse() * m.rotation(t)).angle();
+  // Uncorrected, the bias alone would turn the body by ~0.06 rad over these 8 s.
+  EXPECT_LT(e, 0.02) << "attitude error " << e << " rad after 8 s on the gyro";
+  // A fix resets it.
+  p.add_fix(from_seconds(t + 0.01), SE3(m.rotation(t + 0.01), m.position(t + 0.01)));
+  ASSERT_TRUE(p.attitude().has_value());
+  EXPECT_NEAR(p.attitude()->since_fix_s, 0.0, 1e-12);
+}
+
+TEST(InertialPredictor, NoAttitudeBeforeAFix) {
+  const Motion m;
+  InertialPredictor p;
+  p.add_samples(m.samples(0.0, 1.0, kImuRate));
+  EXPECT_FALSE(p.attitude().has_value());
+}
+
 TEST(InertialPredictor, IgnoresNonFiniteInput) {
   const Motion m;
   InertialPredictor p = run(m, 1.5, 0.01, 1e-3, 5, 3.0);

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <iostream>
+#include <random>
 #include <set>
 
 #include "io/image_io.hpp"
@@ -46,6 +47,80 @@ TEST(FeatureExtractor, TargetCountAndSpreadOnRealFrame) {
   EXPECT_EQ(f.descriptors.size(), f.size());
   EXPECT_EQ(f.status.size(), f.size());
   for (auto s : f.status) EXPECT_EQ(s, FeatureStatus::kStatic);
+}
+
+// The share of `a`'s keypoints that `b` has within a pixel.
+double keypoint_overlap(const FrameFeatures& a, const FrameFeatures& b) {
+  int hit = 0;
+  for (const auto& ka : a.keypoints) {
+    for (const auto& kb : b.keypoints) {
+      if ((ka.px - kb.px).norm() <= 1.0) {
+        ++hit;
+        break;
+      }
+    }
+  }
+  return a.keypoints.empty() ? 0.0 : double(hit) / double(a.keypoints.size());
+}
+
+// A frame taken at a third of the exposure (a dark corridor) should give the corners of the
+// well-lit one: with the dim-image stretch it does; FAST's fixed threshold alone finds others.
+// A well-exposed frame is left exactly as it is.
+TEST(FeatureExtractor, DimImageIsStretchedWellExposedOneUntouched) {
+  const RgbdFrame bright = tum_frame();
+  RgbdFrame dim = bright;
+  std::mt19937 rng(7);
+  std::normal_distribution<double> noise(0.0, 2.0);  // sensor noise does not dim with the light
+  dim.color = Image::allocate(bright.color.width, bright.color.height, bright.color.channels,
+                              PixelType::kU8);
+  for (int y = 0; y < bright.color.height; ++y) {
+    const std::uint8_t* in = bright.color.row<std::uint8_t>(y);
+    std::uint8_t* out = dim.color.row<std::uint8_t>(y);
+    for (int x = 0; x < bright.color.width * bright.color.channels; ++x) {
+      out[x] =
+          static_cast<std::uint8_t>(std::clamp(std::lround(in[x] * 0.2 + noise(rng)), 0L, 255L));
+    }
+  }
+  FeatureExtractorOptions off;
+  off.dim_max_gain = 1.0;
+  const FeatureExtractor plain(tum_camera(), off);
+  const FeatureExtractor stretching(tum_camera());
+  const FrameFeatures reference = plain.extract(bright);
+  const FrameFeatures same = stretching.extract(bright);
+  ASSERT_EQ(same.size(), reference.size());
+  for (std::size_t i = 0; i < same.size(); ++i) {
+    EXPECT_EQ(same.keypoints[i].px, reference.keypoints[i].px) << "feature " << i;
+  }
+  const double with = keypoint_overlap(stretching.extract(dim), reference);
+  const double without = keypoint_overlap(plain.extract(dim), reference);
+  std::cerr << "dim frame: " << with << " of the bright frame's corners with the stretch, "
+            << without << " without\n";
+  EXPECT_GE(with, 0.8);
+  EXPECT_GT(with, without);
+}
+
+// The mechanism on its own: a dim wall whose texture differs by less than FAST's threshold has
+// no corner for it; stretched, the same texture has plenty.
+TEST(FeatureExtractor, DimLowContrastTextureGetsCornersOnlyWhenStretched) {
+  PinholeCamera cam = tum_camera();
+  Image wall = Image::allocate(640, 480, 1, PixelType::kU8);
+  std::mt19937 rng(3);
+  std::normal_distribution<double> noise(0.0, 0.7);
+  for (int y = 0; y < wall.height; ++y) {
+    std::uint8_t* row = wall.row<std::uint8_t>(y);
+    for (int x = 0; x < wall.width; ++x) {
+      const bool dark = ((x / 24) + (y / 24)) % 2 == 0;
+      row[x] = static_cast<std::uint8_t>(std::lround((dark ? 27.0 : 33.0) + noise(rng)));
+    }
+  }
+  FeatureExtractorOptions off;
+  off.dim_max_gain = 1.0;
+  const std::size_t plain = FeatureExtractor(cam, off).extract(wall).size();
+  const std::size_t stretched = FeatureExtractor(cam).extract(wall).size();
+  std::cerr << "dim checkerboard: " << stretched << " features stretched, " << plain
+            << " without\n";
+  EXPECT_GE(stretched, 200u);
+  EXPECT_LT(plain * 4, stretched);
 }
 
 TEST(FeatureExtractor, DepthBackProjectionMatchesDepthImage) {

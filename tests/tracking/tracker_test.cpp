@@ -147,5 +147,38 @@ TEST(Tracker, WaitsForDepthThenLosesOnBlankAndRelocalizes) {
   EXPECT_LT((next.T_w_c.translation() - path[31].translation()).norm(), 0.01);
 }
 
+// Long lost, with the IMU's attitude but no position: a relocalization that faces another way
+// than the gyro says is a look-alike place and is refused; one that agrees is taken.
+TEST(Tracker, RelocalizationMustAgreeWithTheAttitudeHint) {
+  const PinholeCamera cam = synthetic_camera();
+  const test::SyntheticScene scene = test::SyntheticScene::office();
+  const std::vector<SE3> path = test::smooth_path(60);
+  RgbdFrame blank;
+  blank.color = Image::allocate(cam.width, cam.height, 1, PixelType::kU8);
+  blank.depth = Image::allocate(cam.width, cam.height, 1, PixelType::kU16);
+  for (const bool agree : {false, true}) {
+    Tracker tracker(cam);
+    for (int i = 0; i < 20; ++i) {
+      ASSERT_EQ(tracker.track(scene.render(cam, path[static_cast<std::size_t>(i)])).state,
+                TrackingState::kOk);
+    }
+    ASSERT_EQ(tracker.track(blank).state, TrackingState::kLost);
+    const SO3 truth = path[30].so3();
+    // Turned 40 degrees about the camera's vertical axis: outside the 20-degree tolerance.
+    const SO3 hint = agree ? truth : truth * SO3::exp(Vec3(0.0, 0.7, 0.0));
+    tracker.set_attitude_hint(hint);
+    const TrackResult r = tracker.track(scene.render(cam, path[30]));
+    if (agree) {
+      EXPECT_EQ(r.state, TrackingState::kRelocalized);
+      EXPECT_FALSE(r.relocalization_rejected);
+      EXPECT_LT((r.T_w_c.translation() - path[30].translation()).norm(), 0.01);
+    } else {
+      EXPECT_EQ(r.state, TrackingState::kLost);
+      EXPECT_TRUE(r.relocalization_rejected);
+      EXPECT_TRUE(r.T_w_c.is_finite());
+    }
+  }
+}
+
 }  // namespace
 }  // namespace kestrel::tracking
