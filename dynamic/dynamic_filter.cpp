@@ -118,6 +118,10 @@ const char* to_string(LabelReason r) {
       return "depth-change";
     case LabelReason::kLongBaseline:
       return "long-baseline";
+    case LabelReason::kOutlineBackground:
+      return "outline-background";
+    case LabelReason::kOutlineNoDepth:
+      return "outline-no-depth";
   }
   return "?";
 }
@@ -159,6 +163,7 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
   out.residual3d_px.assign(n, -1.0f);
   out.depth_change.assign(n, -1.0f);
   out.box_of.assign(n, -1);
+  out.prev_points.assign(n, Vec2(-1.0, -1.0));
   out.box_moving.assign(in.boxes.size(), false);
   if (n == 0 || opt.mode == FilterMode::kOff) return out;
 
@@ -182,6 +187,10 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
   // The detected object's own depth: the median depth of the box's core (its central part,
   // where a person's torso or a car's body is), and which features lie at that depth.
   std::vector<bool> foreground(n, false);
+  // 1: behind the object with its window on the object's outline; 2: the same without depth.
+  std::vector<std::uint8_t> outline(n, 0);
+  const bool depth_image = in.cur_depth && !in.cur_depth->empty() &&
+                           in.cur_depth->type == PixelType::kU16 && in.cur_depth->channels == 1;
   if (use_boxes && in.depth_m.size() == n) {
     for (std::size_t b = 0; b < in.boxes.size(); ++b) {
       const BoxRegion& box = in.boxes[b];
@@ -204,6 +213,31 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
                 boxes_of[i].end()) {
           foreground[i] = true;
         }
+      }
+      if (!depth_image || !opt.outline_by_depth) continue;
+      const int r = std::max(1, opt.lk_window / 2);
+      for (std::size_t i = 0; i < n; ++i) {
+        if (foreground[i] || outline[i] ||
+            std::find(boxes_of[i].begin(), boxes_of[i].end(), static_cast<int>(b)) ==
+                boxes_of[i].end()) {
+          continue;
+        }
+        const bool behind = in.depth_m[i] > d_fg + band;
+        const bool no_depth = in.depth_m[i] <= 0;
+        if (!behind && !no_depth) continue;
+        const int u0 = static_cast<int>(std::lround(in.points[i].x()));
+        const int v0 = static_cast<int>(std::lround(in.points[i].y()));
+        bool on_object = false, beyond = false;
+        for (int v = std::max(0, v0 - r); v <= std::min(in.cur_depth->height - 1, v0 + r); ++v) {
+          const std::uint16_t* row = in.cur_depth->row<std::uint16_t>(v);
+          for (int u = std::max(0, u0 - r); u <= std::min(in.cur_depth->width - 1, u0 + r); ++u) {
+            if (!row[u]) continue;
+            const double z = row[u] / in.depth_scale;
+            on_object |= std::fabs(z - d_fg) <= band;
+            beyond |= z > d_fg + band;
+          }
+        }
+        if (on_object && beyond) outline[i] = behind ? 1 : 2;
       }
     }
   }
@@ -256,7 +290,7 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
   const cv::TermCriteria term(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, opt.lk_iterations,
                               opt.lk_epsilon_px);
   cv::calcOpticalFlowPyrLK(cur_pyr.levels->pyramid, prev_pyr.levels->pyramid, pts_cur, pts_prev,
-                           st1, cv::noArray(), win, levels, term, flags);
+                           st1, cv::noArray(), win, levels, term, flags, opt.lk_min_eigen);
   pts_back = pts_cur;
   cv::calcOpticalFlowPyrLK(prev_pyr.levels->pyramid, cur_pyr.levels->pyramid, pts_prev, pts_back,
                            st2, cv::noArray(), win, std::min(opt.lk_backward_levels, levels), term,
@@ -269,6 +303,7 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
                pts_prev[i].x >= 0 && pts_prev[i].y >= 0 && pts_prev[i].x < prev_cols &&
                pts_prev[i].y < prev_rows;
     out.tracked += valid[i] ? 1 : 0;
+    if (valid[i]) out.prev_points[i] = Vec2(pts_prev[i].x, pts_prev[i].y);
   }
 
   const cv::Matx33d Kcv = to_matx(in.K);
@@ -494,6 +529,17 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
     const bool background_in_box =
         !boxes_of[i].empty() && !foreground[i] && in.depth_m.size() == n && in.depth_m[i] > 0;
     const bool in_box = !boxes_of[i].empty() && !background_in_box;
+    // On the object's outline flow mixes both sides: the feature's own depth decides.
+    if (outline[i] == 1 && !depth_moved(i)) {
+      out.labels[i] = FeatureLabel::kStatic;
+      out.reasons[i] = LabelReason::kOutlineBackground;
+      continue;
+    }
+    if (outline[i] == 2 && opt.outline_no_depth_dynamic) {
+      out.labels[i] = FeatureLabel::kDynamic;
+      out.reasons[i] = LabelReason::kOutlineNoDepth;
+      continue;
+    }
     if (!valid[i]) {
       out.labels[i] = in_box ? FeatureLabel::kDynamic : FeatureLabel::kUnknown;
       out.reasons[i] = in_box ? LabelReason::kNoFlowInBox : LabelReason::kNoFlow;

@@ -457,6 +457,47 @@ TEST(DynamicFilter, RotationPriorFindsLargeRotationalFlow) {
   EXPECT_LT(r.count(FeatureLabel::kDynamic), in.points.size() / 50);
 }
 
+TEST(DynamicFilter, OutlineBackgroundJudgedByDepthNotFlow) {
+  // A static camera, a mover at 3 m sliding right in front of a wall at 5 m. Wall features whose
+  // LK window reaches over the mover's edge follow the edge; with the current depth image their
+  // own depth (the wall's) says they are background.
+  const Scene s = make_scene({0, 0, 0}, {0.06, 0, 0});
+  const Image prev = to_image(s.prev), cur = to_image(s.cur);
+  DynamicFilterInput in = input_for(s, prev, cur);
+  BoxRegion box = mover_box(s);  // a detector's box is looser than the silhouette
+  box.x_min -= 12, box.y_min -= 12, box.x_max += 12, box.y_max += 12;
+  in.boxes = {box};
+  in.depth_m = depths_of(s, 0.0);
+  Image depth = Image::allocate(640, 480, 1, PixelType::kU16);
+  const double plane_z[3] = {5.0, 2.0, 3.0};
+  for (int v = 0; v < 480; ++v) {
+    for (int u = 0; u < 640; ++u) {
+      const int id = s.ids.at<uint8_t>(v, u);
+      depth.row<std::uint16_t>(v)[u] =
+          id < 3 ? static_cast<std::uint16_t>(plane_z[id] * in.depth_scale) : 0;
+    }
+  }
+  in.cur_depth = &depth;
+  const DynamicFilterOptions opt;
+  const DynamicFilterResult r = classify_features(in, opt);
+  std::size_t outline = 0;
+  for (std::size_t i = 0; i < r.labels.size(); ++i) {
+    if (r.reasons[i] != LabelReason::kOutlineBackground) continue;
+    ++outline;
+    EXPECT_EQ(
+        s.ids.at<uint8_t>(static_cast<int>(in.points[i].y()), static_cast<int>(in.points[i].x())),
+        0);  // on the wall
+    EXPECT_EQ(r.labels[i], FeatureLabel::kStatic);
+  }
+  EXPECT_GT(outline, 3u);
+  const Score with = score(s, r);
+  DynamicFilterOptions no_outline = opt;
+  no_outline.outline_by_depth = false;
+  const Score without = score(s, classify_features(in, no_outline));
+  EXPECT_GE(with.removed, 95.0);
+  EXPECT_GT(with.kept, without.kept);
+}
+
 TEST(DynamicFilter, EmptyInputAndTooFewFeatures) {
   Image a = Image::allocate(64, 48, 1, PixelType::kU8);
   DynamicFilterInput in;
