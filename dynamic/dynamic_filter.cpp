@@ -275,7 +275,7 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
   // homography's inverse, K R^T K^-1); without it, the point itself.
   const int levels = opt.lk_levels;
   int flags = 0;
-  if (in.R_cur_prev) {
+  if (in.R_cur_prev && opt.lk_rotation_prior) {
     const cv::Matx33d H_prev_cur = to_matx(in.K * in.R_cur_prev->transpose() * in.K.inverse());
     for (std::size_t i = 0; i < n; ++i) {
       const cv::Vec3d p = H_prev_cur * cv::Vec3d(pts_cur[i].x, pts_cur[i].y, 1.0);

@@ -77,6 +77,9 @@ struct DynamicFilterOptions {
   int lk_iterations = 10;
   double lk_epsilon_px = 0.1;
   int lk_backward_levels = 3;
+  // Start the flow where the IMU rotation puts each point. Off: over whole bench scenes it
+  // coincided with most movers' flow being lost (uav-zigzag no-flow 7.8k -> 67k features).
+  bool lk_rotation_prior = false;
   // LK's minEigThreshold (OpenCV's default): below it a feature's flow is not determined (a
   // straight edge, a flat patch). 1e-3 keeps noise flow on uav-zigzag's edges from being flagged
   // (static kept +6 pts over 100 frames) but loses most movers' flow over whole scenes (their

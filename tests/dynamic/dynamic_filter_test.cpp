@@ -448,6 +448,7 @@ TEST(DynamicFilter, RotationPriorFindsLargeRotationalFlow) {
   DynamicFilterOptions opt;
   opt.mode = FilterMode::kGeometryOnly;
   opt.lk_levels = opt.lk_backward_levels = 1;  // too shallow to find 40 px on its own
+  opt.lk_rotation_prior = true;
   const DynamicFilterResult blind = classify_features(in, opt);
   in.R_cur_prev = R;
   const DynamicFilterResult r = classify_features(in, opt);
