@@ -45,7 +45,7 @@ struct MapBuilderOptions {
   double reachable_seed_radius = 3.0;
   // A cell is free only when its band is seen free over this height from the band's base:
   // room for a robot's body, not only a gap under something (a car's body 0.3 m up).
-  double grid_free_clearance = 0.4;  // metres (0.1..0.5 m up); 0: any free voxel of the band
+  double grid_free_clearance = 0.0;  // metres (0.1..0.5 m up); 0: any free voxel of the band
 };
 
 struct MapKeyframe {
