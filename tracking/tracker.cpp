@@ -218,21 +218,20 @@ TrackResult Tracker::track(FrameFeatures f, const std::optional<SE3>& predicted,
 
   const int needed = relocalizing ? options_.min_inliers_relocalize : options_.min_inliers;
   bool ok = pose.ok && pose.inliers >= needed && pose.T_c_w.is_finite();
-  if (ok && relocalizing && predicted && options_.relocalize_max_prediction_m > 0.0) {
-    // A relocalization far from where the IMU says the camera is found a look-alike place
-    // (a repeated facade, the same shelf twice).
-    const SE3 d = pose.T_c_w * *predicted;
-    if (d.translation().norm() > options_.relocalize_max_prediction_m ||
-        d.so3().angle() > options_.relocalize_max_prediction_rad) {
-      ok = false;
-      res.relocalization_rejected = true;
+  if (ok && relocalizing) {
+    // A relocalization far from where the IMU says the camera is found a look-alike place (a
+    // repeated facade, the same shelf twice). Long lost, the position is unknown but the gyro's
+    // attitude is not: a corridor seen the other way round looks alike only with the camera
+    // turned.
+    bool far = false;
+    if (predicted && options_.relocalize_max_prediction_m > 0.0) {
+      const SE3 d = pose.T_c_w * *predicted;
+      far = d.translation().norm() > options_.relocalize_max_prediction_m ||
+            d.so3().angle() > options_.relocalize_max_prediction_rad;
+    } else if (!predicted && attitude_hint_ && options_.relocalize_max_prediction_rad > 0.0) {
+      far = (pose.T_c_w.so3() * *attitude_hint_).angle() > options_.relocalize_max_prediction_rad;
     }
-  }
-  if (ok && relocalizing && !predicted && attitude_hint_ &&
-      options_.relocalize_max_prediction_rad > 0.0) {
-    // The position is long unknown, the gyro's attitude is not: a corridor seen the other way
-    // round, a symmetric hall, look alike only with the camera turned.
-    if ((pose.T_c_w.so3() * *attitude_hint_).angle() > options_.relocalize_max_prediction_rad) {
+    if (far) {
       ok = false;
       res.relocalization_rejected = true;
     }
