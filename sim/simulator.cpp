@@ -75,17 +75,27 @@ void Simulator::draw_scene(double t, RenderTarget& target, std::vector<bool>& mo
   rasterizer_.draw(mover_mesh_, world_->textures(), T_c_w, target);
 }
 
-SimFrame Simulator::render(int k) {
-  SimFrame f;
-  f.index = k;
-  f.time = frame_time(k);
-  f.body = trajectory_->state(f.time);
+Simulator::FrameTiming Simulator::frame_timing(int k) const {
+  FrameTiming ft;
+  ft.time = frame_time(k);
   const SensorSpec& ss = scenario_.sensor;
   double jitter = 0.0;
   if (ss.jitter > 0.0) jitter = ss.jitter * sensor_.gaussian(0x717, static_cast<std::uint64_t>(k));
-  f.stamp = static_cast<Timestamp>(std::llround((f.time + jitter) * 1e9));
-  f.dropped = k > 0 && ss.drop_rate > 0.0 &&
-              sensor_.uniform(0xd50, static_cast<std::uint64_t>(k)) < ss.drop_rate;
+  ft.stamp = static_cast<Timestamp>(std::llround((ft.time + jitter) * 1e9));
+  ft.dropped = k > 0 && ss.drop_rate > 0.0 &&
+               sensor_.uniform(0xd50, static_cast<std::uint64_t>(k)) < ss.drop_rate;
+  return ft;
+}
+
+SimFrame Simulator::render(int k) {
+  SimFrame f;
+  f.index = k;
+  const FrameTiming ft = frame_timing(k);
+  f.time = ft.time;
+  f.body = trajectory_->state(f.time);
+  f.stamp = ft.stamp;
+  f.dropped = ft.dropped;
+  const SensorSpec& ss = scenario_.sensor;
 
   std::vector<bool> moving;
   draw_scene(f.time, target_, moving);

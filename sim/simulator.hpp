@@ -51,6 +51,14 @@ class Simulator {
   const World& world() const { return *world_; }
 
   double frame_time(int k) const;
+  // When frame k is exposed, the stamp its sensor reports and whether the sensor drops it: what
+  // render(k) says about time, without drawing anything.
+  struct FrameTiming {
+    double time = 0.0;
+    Timestamp stamp = 0;
+    bool dropped = false;
+  };
+  FrameTiming frame_timing(int k) const;
   SE3 camera_pose(double t) const;  // T_w_c
   // Frame k; pixel buffers are rendered even for dropped frames (they are simply not written).
   SimFrame render(int k);
