@@ -31,6 +31,10 @@ nlohmann::json bench_dynamic(const AreaOptions& options);
 // H.264 encode ms per frame and bitrate at 640x480 and 1280x720 on rendered frames.
 nlohmann::json bench_video(const AreaOptions& options);
 
+// The live system on market for ten minutes (--quick: 30 s) at real-time pace: frame-to-pose
+// latency percentiles, resident memory along the run, map size.
+nlohmann::json bench_endurance(const AreaOptions& options);
+
 // Median of a sample (0 for none).
 double median_of(std::vector<double> v);
 

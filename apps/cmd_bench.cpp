@@ -46,8 +46,8 @@ struct BenchFlags {
   std::vector<std::string> only;  // areas to run; empty: all
 };
 
-const std::vector<std::string> kAreas = {"accuracy", "dynamic",   "evaluation", "imu",
-                                         "objects",  "telemetry", "video",      "memory"};
+const std::vector<std::string> kAreas = {"accuracy",  "dynamic", "evaluation", "imu",   "objects",
+                                         "telemetry", "video",   "endurance",  "memory"};
 
 // One way of running the system (a row of the accuracy table).
 struct Mode {
@@ -175,7 +175,7 @@ void run_bench(const BenchFlags& flags) {
     if (std::find(kAreas.begin(), kAreas.end(), a) == kAreas.end()) {
       throw kestrel::Error("bench: unknown area '" + a +
                            "' (--only takes a list of: accuracy, dynamic, "
-                           "evaluation, imu, objects, telemetry, video, memory)");
+                           "evaluation, imu, objects, telemetry, video, endurance, memory)");
     }
   }
   const auto want = [&](const std::string& area) {
@@ -377,6 +377,7 @@ void run_bench(const BenchFlags& flags) {
   if (want("objects")) j["objects"] = kestrel::bench::bench_objects(area);
   if (want("telemetry")) j["telemetry"] = kestrel::bench::bench_telemetry(area);
   if (want("video")) j["video"] = kestrel::bench::bench_video(area);
+  if (want("endurance")) j["endurance"] = kestrel::bench::bench_endurance(area);
 
   const double total_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -417,7 +418,7 @@ void setup_bench(CLI::App& app) {
   cmd->add_flag("--tiny", flags->tiny, "the smallest inputs (seconds; for tests, not figures)");
   cmd->add_option("--only", flags->only,
                   "areas to run: accuracy, dynamic, evaluation, imu, objects, telemetry, video, "
-                  "memory")
+                  "endurance, memory")
       ->delimiter(',');
   // `kestrel bench dynamic` is `kestrel bench --only dynamic`.
   cmd->add_option("areas", flags->only, "areas to run (as --only)");

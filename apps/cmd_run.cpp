@@ -16,6 +16,7 @@
 #include "pipeline/progress.hpp"
 #include "pipeline/run_job.hpp"
 #include "sim/builtin_scenarios.hpp"
+#include "sim/live_source.hpp"
 #include "sim/scenario.hpp"
 #include "sim/sequence_recorder.hpp"
 #include "sim/simulator.hpp"
@@ -34,6 +35,7 @@ struct RunFlags {
   std::string mode = "auto";
   bool no_loop = false;
   bool realtime = false;
+  double duration = -1.0;  // sim: scenes only
 };
 
 std::string dataset_dir_of(const std::string& spec) {
@@ -165,13 +167,24 @@ void print_summary(const char* name, const RunSummary& s) {
   std::printf("  tracking %.1f ms/frame median (%.0f FPS), detector %.1f ms/frame\n",
               s.tracking_ms_median, s.tracking_ms_median > 0 ? 1000.0 / s.tracking_ms_median : 0.0,
               s.detector_ms_median);
+  if (auto it = s.stages.find("frame_latency"); it != s.stages.end()) {
+    std::printf("  frame arrival to pose: p50 %.1f ms, p99 %.1f ms, max %.1f ms\n",
+                it->second.p50_ms, it->second.p99_ms, it->second.max_ms);
+  }
+  if (!s.memory.empty()) {
+    double peak = 0.0;
+    for (const auto& m : s.memory) peak = std::max(peak, m.rss_mib);
+    std::printf("  resident memory %.0f MiB at the end (peak %.0f MiB)\n", s.memory.back().rss_mib,
+                peak);
+  }
 }
 
 void setup_run(CLI::App& app) {
   auto flags = std::make_shared<RunFlags>();
   auto* cmd = app.add_subcommand("run", "Run the SLAM system over a dataset");
   cmd->add_option("--dataset", flags->dataset,
-                  "tum:DIR | euroc:DIR | tumvi:DIR | openloris:DIR | kestrel:DIR (or a DIR)")
+                  "tum:DIR | euroc:DIR | tumvi:DIR | openloris:DIR | kestrel:DIR (or a DIR) | "
+                  "sim:SCENARIO (rendered live)")
       ->required();
   cmd->add_option("--out", flags->out,
                   "output folder (trajectory.txt, timing.json, summary.json, report.html)")
@@ -188,17 +201,40 @@ void setup_run(CLI::App& app) {
       ->capture_default_str();
   cmd->add_flag("--no-loop", flags->no_loop, "no loop closing (odometry and local map only)");
   cmd->add_flag("--realtime", flags->realtime,
-                "threads run free (detection may lag and drop) instead of in lock-step");
+                "as a live sensor: frames fed at their stamps' pace, threads run free (detection "
+                "may lag and drop) instead of in lock-step");
+  cmd->add_option("--duration", flags->duration, "seconds of a sim: scene (default: its own)");
   cmd->callback([flags] {
-    kestrel::io::DatasetOptions dopt;
-    dopt.config_file = flags->config;
-    auto source = kestrel::io::open_dataset(flags->dataset, dopt);
-    std::printf("kestrel run: %s\n", source->describe().c_str());
     RunOptions opt;
-    opt.dataset_dir = dataset_dir_of(flags->dataset);
+    std::unique_ptr<kestrel::io::MeasurementSource> source;
+    std::string scenario_yaml;
+    if (flags->dataset.rfind("sim:", 0) == 0) {
+      // The simulator as a live camera: nothing written, any length.
+      if (!flags->config.empty()) {
+        throw kestrel::Error("--config: a sim: scene carries its own calibration");
+      }
+      kestrel::sim::ScenarioOverrides over;
+      over.duration = flags->duration;
+      auto live = std::make_unique<kestrel::sim::LiveSource>(
+          kestrel::sim::load_scenario(flags->dataset.substr(4), over));
+      const kestrel::sim::LiveSource* truth = live.get();
+      scenario_yaml = live->simulator().scenario().yaml;
+      opt.truth_masks = [truth](kestrel::Timestamp t) { return truth->truth_mask(t); };
+      source = std::move(live);
+    } else {
+      if (flags->duration > 0) throw kestrel::Error("--duration applies to sim: scenes only");
+      kestrel::io::DatasetOptions dopt;
+      dopt.config_file = flags->config;
+      source = kestrel::io::open_dataset(flags->dataset, dopt);
+      opt.dataset_dir = dataset_dir_of(flags->dataset);
+    }
+    std::printf("kestrel run: %s\n", source->describe().c_str());
+
     opt.detector = flags->detector;
     opt.dynamic = *kestrel::dynamic::filter_mode_from_string(flags->dynamic);
     opt.sequential = !flags->realtime;
+    opt.paced = flags->realtime;
+    opt.memory_sample_s = 1.0;
     opt.out_dir = flags->out;
     opt.mode = flags->mode;
     opt.loop_closing = !flags->no_loop;
@@ -208,6 +244,8 @@ void setup_run(CLI::App& app) {
     report.command_line = command_line();
     if (!flags->config.empty()) {
       report.config_text = "# " + flags->config + "\n" + read_text(flags->config);
+    } else if (!scenario_yaml.empty()) {
+      report.config_text = "# " + flags->dataset + " (rendered live)\n" + scenario_yaml;
     } else if (!opt.dataset_dir.empty() &&
                std::filesystem::exists(opt.dataset_dir + "/calib.yaml")) {
       report.config_text = "# " + opt.dataset_dir + "/calib.yaml (no --config)\n" +

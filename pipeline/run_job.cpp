@@ -9,6 +9,8 @@
 #include <filesystem>
 #include <fstream>
 #include <mutex>
+#include <optional>
+#include <thread>
 
 #include "core/error.hpp"
 #include "detect/oracle_detector.hpp"
@@ -16,6 +18,7 @@
 #include "eval/trajectory_evaluation.hpp"
 #include "io/kestrel_sequence.hpp"
 #include "io/trajectory_io.hpp"
+#include "pipeline/process_memory.hpp"
 #include "pipeline/progress.hpp"
 #include "pipeline/system.hpp"
 
@@ -144,7 +147,11 @@ RunSummary run_sequence(io::MeasurementSource& source, const RunOptions& options
   }
   System system(source.calibration(), sys_opt, std::move(detector));
   RunSummary summary;
-  if (!options.dataset_dir.empty() && std::filesystem::exists(options.dataset_dir + "/dynamic")) {
+  if (options.truth_masks) {
+    summary.has_truth_masks = true;
+    system.set_truth_masks(options.truth_masks);
+  } else if (!options.dataset_dir.empty() &&
+             std::filesystem::exists(options.dataset_dir + "/dynamic")) {
     summary.has_truth_masks = true;
     const std::string dir = options.dataset_dir;
     system.set_truth_masks([dir](Timestamp t) { return io::read_dynamic_mask(dir, t); });
@@ -160,7 +167,20 @@ RunSummary run_sequence(io::MeasurementSource& source, const RunOptions& options
 
   const auto t0 = std::chrono::steady_clock::now();
   std::size_t next_keep = 0;
+  std::optional<Timestamp> first_stamp;
+  double next_memory_s = 0.0;
+  std::int64_t stream_ns = 0;
   while (auto m = source.next()) {
+    const Timestamp stamp = stamp_of(*m);
+    if (!first_stamp) first_stamp = stamp;
+    const std::int64_t since_first = stamp - *first_stamp;
+    stream_ns = std::max(stream_ns, since_first);
+    if (options.paced) std::this_thread::sleep_until(t0 + std::chrono::nanoseconds(since_first));
+    if (options.memory_sample_s > 0 && !std::holds_alternative<ImuSample>(*m) &&
+        to_seconds(since_first) >= next_memory_s) {
+      summary.memory.push_back({to_seconds(since_first), resident_mib()});
+      next_memory_s += options.memory_sample_s;
+    }
     if (next_keep < keep.size() && summary.frames == keep[next_keep]) {
       if (const auto* f = std::get_if<RgbdFrame>(&*m)) {
         observer.keep(next_keep++, *f);
@@ -176,6 +196,9 @@ RunSummary run_sequence(io::MeasurementSource& source, const RunOptions& options
     if (!std::holds_alternative<ImuSample>(*m)) ++summary.frames;
   }
   system.finish();
+  if (options.memory_sample_s > 0) {
+    summary.memory.push_back({to_seconds(stream_ns), resident_mib()});
+  }
   summary.wall_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 
@@ -244,6 +267,12 @@ std::string summary_json(const RunSummary& s) {
   j["detector_ms_median"] = s.detector_ms_median;
   j["detector_fps"] = s.detector_ms_median > 0 ? 1000.0 / s.detector_ms_median : 0.0;
   j["wall_seconds"] = s.wall_seconds;
+  if (!s.memory.empty()) {
+    double peak = 0.0;
+    for (const MemorySample& m : s.memory) peak = std::max(peak, m.rss_mib);
+    j["rss_mib_end"] = s.memory.back().rss_mib;
+    j["rss_mib_peak"] = peak;
+  }
   return j.dump(2);
 }
 

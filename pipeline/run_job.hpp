@@ -33,6 +33,21 @@ struct RunOptions {
   bool progress = true;
   std::string progress_label;    // printed before the bar when not empty
   std::size_t strip_frames = 4;  // frames kept (evenly spread) for the report's strip
+  // Feed each measurement no earlier than its stamp says, counted from the first one, as a live
+  // sensor delivers it; with sequential = false this is a real-time run, and frame_latency is
+  // what a live user waits from frame arrival to pose.
+  bool paced = false;
+  // Mover masks for the removal figures when the source is not a sequence on disk (the live
+  // simulator); else they are read from dataset_dir/dynamic when it exists.
+  TruthMaskProvider truth_masks;
+  // Resident memory is sampled every this many seconds of stream time (0: never).
+  double memory_sample_s = 0.0;
+};
+
+// Resident memory of this process at a moment of the run.
+struct MemorySample {
+  double stream_s = 0.0;  // seconds since the first measurement's stamp
+  double rss_mib = 0.0;
 };
 
 // A frame kept for the report, with what the system said about it.
@@ -43,10 +58,10 @@ struct KeptFrame {
 
 struct RunSummary {
   std::size_t frames = 0;
-  std::size_t tracked = 0;        // frames with a visual pose
+  std::size_t tracked = 0;  // frames with a visual pose
   std::size_t lost = 0;
   std::size_t inertial_only = 0;  // lost frames whose pose the IMU carried (in the trajectory)
-  double ape_rmse_m = -1.0;  // -1 without ground truth
+  double ape_rmse_m = -1.0;       // -1 without ground truth
   std::size_t ape_pairs = 0;
   dynamic::RemovalCounts removal;
   bool has_truth_masks = false;
@@ -60,6 +75,7 @@ struct RunSummary {
   std::map<std::string, LatencySummary> stages;
   std::map<std::string, std::size_t> counters;
   std::vector<KeptFrame> strip;
+  std::vector<MemorySample> memory;  // with memory_sample_s > 0; the last is after finish()
 };
 
 // Whether the run uses the IMU, for a mode and what the calibration offers; throws

@@ -801,6 +801,9 @@ void System::finish() {
   impl_->stats.set_counter("tracking.bridged", impl_->bridged);
   impl_->stats.set_counter("tracking.imu_conflicts", impl_->prior_conflicts);
   impl_->stats.set_counter("tracking.relocalizations_rejected", impl_->relocalizations_rejected);
+  // Threads joined: the map is the tracker's alone. What a long run's memory grows with.
+  impl_->stats.set_counter("map.keyframes", impl_->tracker.map().num_keyframes());
+  impl_->stats.set_counter("map.points", impl_->tracker.map().num_points());
   {
     std::lock_guard<std::mutex> lock(impl_->imu_mutex);
     impl_->stats.set_counter("imu.missing", impl_->imu_missing ? 1 : 0);

@@ -39,7 +39,7 @@ TEST(BenchAreas, TinyRunOfEveryAreaWritesFiniteFigures) {
   const fs::path out = dir / "bench.json", log = dir / "log.txt";
   const std::string cmd =
       (kestrel::test::build_dir() / "kestrel").string() +
-      " bench --tiny --only dynamic,evaluation,imu,objects,telemetry,video,memory"
+      " bench --tiny --only dynamic,evaluation,imu,objects,telemetry,video,endurance,memory"
       " --json " +
       out.string() + " > " + log.string() + " 2>&1";
   ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
@@ -95,6 +95,19 @@ TEST(BenchAreas, TinyRunOfEveryAreaWritesFiniteFigures) {
     }
   }
   EXPECT_GT(number_at(j, "/memory/peak_rss_mib"), 0);
+
+  // Endurance: 3 s of market live at real-time pace (91 frames), memory sampled along the way.
+  EXPECT_EQ(number_at(j, "/endurance/frames"), 91);
+  EXPECT_GE(number_at(j, "/endurance/wall_seconds"), 3.0);  // paced: never faster than the sensor
+  EXPECT_GT(number_at(j, "/endurance/tracked"), 45);
+  EXPECT_GT(number_at(j, "/endurance/frame_latency_ms/p99"), 0);
+  EXPECT_GE(number_at(j, "/endurance/frame_latency_ms/p99"),
+            number_at(j, "/endurance/frame_latency_ms/p50"));
+  EXPECT_GT(number_at(j, "/endurance/rss_mib_end"), 0);
+  EXPECT_GE(number_at(j, "/endurance/rss_mib_peak"), number_at(j, "/endurance/rss_mib_end"));
+  EXPECT_GE(j["endurance"]["rss_samples_s_mib"].size(), 4u);
+  EXPECT_GT(number_at(j, "/endurance/keyframes"), 0);
+  EXPECT_GT(number_at(j, "/endurance/map_points"), 0);
 
   // Dynamic: every row of issue 5 on the (tiny) cafe, and the unknown-class mover it chose.
   for (const char* row :
