@@ -36,13 +36,17 @@ std::optional<Measurement> LiveSource::next() {
   out.depth = std::move(f.depth);
   out.depth_scale = sim_.calibration().depth_scale;
   out.source = "sim:" + sim_.scenario().name + " frame " + std::to_string(f.index);
-  recent_.push_back({out.t, std::move(f.mask)});
-  if (recent_.size() > recent_capacity_) recent_.pop_front();
+  {
+    std::lock_guard lock(recent_mutex_);
+    recent_.push_back({out.t, std::move(f.mask)});
+    if (recent_.size() > recent_capacity_) recent_.pop_front();
+  }
   ++next_frame_;
   return Measurement{std::move(out)};
 }
 
 Image LiveSource::truth_mask(Timestamp t) const {
+  std::lock_guard lock(recent_mutex_);
   for (const Recent& r : recent_) {
     if (r.stamp == t) return r.mask;
   }

@@ -6,6 +6,7 @@
 // back (same stamps, pixels, IMU and ground truth).
 #include <cstddef>
 #include <deque>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <vector>
@@ -28,7 +29,8 @@ class LiveSource : public io::MeasurementSource {
   std::string describe() const override;
 
   // Mover mask of a recently streamed frame (16-bit ids), or an empty Image once it has aged
-  // out of the window or for a stamp never streamed.
+  // out of the window or for a stamp never streamed. Safe to call from another thread (the
+  // tracker's) while next() runs.
   Image truth_mask(Timestamp t) const;
   const Simulator& simulator() const { return sim_; }
 
@@ -46,6 +48,7 @@ class LiveSource : public io::MeasurementSource {
   std::size_t next_frame_ = 0;
   std::size_t next_imu_ = 0;
   std::size_t recent_capacity_;
+  mutable std::mutex recent_mutex_;
   std::deque<Recent> recent_;
 };
 
