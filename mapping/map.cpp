@@ -216,6 +216,55 @@ void Map::update_connections(KeyframeId kid, int min_shared) {
   }
 }
 
+double Map::redundancy(KeyframeId kid, double max_depth, int observers) const {
+  const Keyframe* kf = keyframe(kid);
+  if (!kf) return 0.0;
+  int close = 0, redundant = 0;
+  const auto& ff = kf->features;
+  for (std::size_t i = 0; i < kf->point_of_feature.size(); ++i) {
+    const MapPoint* p = point(kf->point_of_feature[i]);
+    if (!p || i >= ff.depth.size() || ff.depth[i] <= 0.0 || ff.depth[i] > max_depth) continue;
+    ++close;
+    const int level = ff.keypoints[i].level;
+    int seen = 0;
+    for (const auto& [other, feature] : p->observations) {
+      if (other == kid) continue;
+      const Keyframe* o = keyframe(other);
+      if (!o || feature < 0 || feature >= static_cast<int>(o->features.keypoints.size())) continue;
+      if (o->features.keypoints[static_cast<std::size_t>(feature)].level <= level + 1 &&
+          ++seen >= observers) {
+        break;
+      }
+    }
+    redundant += seen >= observers ? 1 : 0;
+  }
+  return close > 0 ? static_cast<double>(redundant) / close : 0.0;
+}
+
+void Map::erase_keyframe(KeyframeId kid) {
+  auto it = keyframes_.find(kid);
+  if (it == keyframes_.end()) return;
+  std::vector<KeyframeId> neighbours;
+  for (const auto& [other, w] : it->second.connections) {
+    (void)w;
+    if (Keyframe* o = keyframe(other)) o->connections.erase(kid);
+    neighbours.push_back(other);
+  }
+  const std::vector<PointId> seen = it->second.point_of_feature;
+  keyframes_.erase(it);
+  for (PointId pid : seen) {
+    MapPoint* p = point(pid);
+    if (!p) continue;
+    p->observations.erase(kid);
+    if (p->observations.empty()) {
+      points_.erase(pid);
+    } else {
+      update_point(pid);  // first_keyframe stays: it dates the point's birth for culling
+    }
+  }
+  for (KeyframeId other : neighbours) update_connections(other);
+}
+
 std::vector<KeyframeId> Map::covisible(KeyframeId kid, int n) const {
   const Keyframe* kf = keyframe(kid);
   if (!kf) return {};

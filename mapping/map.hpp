@@ -73,6 +73,13 @@ class Map {
   void update_connections(KeyframeId kf, int min_shared = 15);
   // Map points of kf seen by at least min_observations keyframes (ORB-SLAM's keyframe test).
   int tracked_points(KeyframeId kf, int min_observations) const;
+  // ORB-SLAM's keyframe-culling test: of kf's points observed closer than max_depth, the
+  // fraction that at least `observers` other keyframes see at the same or a finer pyramid level
+  // (one level of slack). 0 when kf has no such point.
+  double redundancy(KeyframeId kf, double max_depth, int observers = 3) const;
+  // Removes a keyframe: its observations (a point it alone saw goes with it) and its
+  // covisibility edges; the neighbours' weights are recomputed.
+  void erase_keyframe(KeyframeId kf);
   // Up to n keyframes sharing the most points with kf, best first.
   std::vector<KeyframeId> covisible(KeyframeId kf, int n) const;
 

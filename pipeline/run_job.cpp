@@ -272,6 +272,9 @@ std::string summary_json(const RunSummary& s) {
     for (const MemorySample& m : s.memory) peak = std::max(peak, m.rss_mib);
     j["rss_mib_end"] = s.memory.back().rss_mib;
     j["rss_mib_peak"] = peak;
+    nlohmann::json samples = nlohmann::json::array();
+    for (const MemorySample& m : s.memory) samples.push_back({m.stream_s, m.rss_mib});
+    j["rss_mib_samples"] = samples;  // [stream seconds, MiB]
   }
   return j.dump(2);
 }

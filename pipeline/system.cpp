@@ -52,6 +52,9 @@ struct LoopJob {
   loop::PlaceView view;
   Timestamp t = 0;
   SE3 T_w_c;
+  // The tracker culled keyframe view.id: drop its place (its pose-graph node stays, so loop
+  // corrections still move what was anchored to it).
+  bool forget = false;
 };
 
 struct QueuedFrame {
@@ -164,6 +167,7 @@ struct System::Impl {
   Timestamp imu_fed_until = 0;  // predictor has the IMU up to here
   std::size_t inertial_frames = 0;
   std::size_t bridged = 0;                   // lost tracks restarted at the IMU's pose
+  std::size_t keyframes_culled = 0;          // tracking thread: redundant keyframes erased
   std::size_t prior_conflicts = 0;           // frames whose vision disagreed with the IMU
   std::size_t relocalizations_rejected = 0;  // too far from the IMU's pose
 
@@ -373,6 +377,15 @@ struct System::Impl {
     push_loop_job(id);
   }
 
+  void forget_place(mapping::KeyframeId id) {
+    std::erase(awaiting_ba, id);  // its BA result finds no keyframe
+    if (!loop_detector) return;
+    LoopJob job;
+    job.view.id = id;
+    job.forget = true;
+    loop_jobs.push(std::move(job));
+  }
+
   void push_loop_job(mapping::KeyframeId id) {
     if (!loop_detector) return;
     const mapping::Keyframe* kf = tracker.map().keyframe(id);
@@ -547,6 +560,8 @@ struct System::Impl {
       }
       removal += report.removal;
     }
+    for (const mapping::KeyframeId id : tr.culled_keyframes) forget_place(id);
+    keyframes_culled += tr.culled_keyframes.size();
     if (tr.new_keyframe) {
       // Place recognition sees the keyframe after its local BA (it anchors loop corrections).
       if (local_ba_requested == tr.keyframe_id) {
@@ -630,6 +645,10 @@ struct System::Impl {
   void loop_loop() {
     std::optional<loop::PoseId> previous;
     while (auto job = loop_jobs.pop()) {
+      if (job->forget) {
+        loop_detector->erase(job->view.id);
+        continue;
+      }
       const loop::PoseId id = job->view.id;
       keyframe_poses[id] = job->T_w_c;
       keyframe_stamps[id] = job->t;
@@ -804,6 +823,7 @@ void System::finish() {
   // Threads joined: the map is the tracker's alone. What a long run's memory grows with.
   impl_->stats.set_counter("map.keyframes", impl_->tracker.map().num_keyframes());
   impl_->stats.set_counter("map.points", impl_->tracker.map().num_points());
+  impl_->stats.set_counter("map.keyframes_culled", impl_->keyframes_culled);
   {
     std::lock_guard<std::mutex> lock(impl_->imu_mutex);
     impl_->stats.set_counter("imu.missing", impl_->imu_missing ? 1 : 0);

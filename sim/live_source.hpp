@@ -18,9 +18,9 @@ namespace kestrel::sim {
 
 class LiveSource : public io::MeasurementSource {
  public:
-  // recent_truth: how many of the latest frames keep their mover mask and boxes for
-  // truth_mask() (the tracker asks for a frame's mask shortly after it is fed).
-  explicit LiveSource(Scenario scenario, std::size_t recent_truth = 64);
+  // recent_truth: how many of the latest frames keep their mover mask for truth_mask(): the
+  // tracker asks for a frame's mask once it leaves the frame queue (8 deep), 0.6 MB each.
+  explicit LiveSource(Scenario scenario, std::size_t recent_truth = 16);
 
   std::optional<Measurement> next() override;
   const Calibration& calibration() const override { return sim_.calibration(); }

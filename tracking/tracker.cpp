@@ -284,6 +284,8 @@ TrackResult Tracker::track(FrameFeatures f, const std::optional<SE3>& predicted,
   if (need_keyframe(f, m, pose.inliers) || relocalizing) {
     res.keyframe_id = insert_keyframe(std::move(f), m, T_w_c);
     res.new_keyframe = true;
+    res.culled_keyframes = std::move(culled_);
+    culled_.clear();
     // Local BA may have refined this keyframe's pose: report and continue from the refined one.
     const SE3 refined = map_.keyframe(res.keyframe_id)->T_w_c;
     if (velocity_) velocity_ = *velocity_ * T_w_c.inverse() * refined;
@@ -576,6 +578,7 @@ KeyframeId Tracker::insert_keyframe(FrameFeatures&& f, const Matched& m, const S
   }
   map_.update_connections(kid);
   map_.cull_points(kid, options_.culling);
+  culled_ = cull_keyframes(kid, last_kf_);
   if (options_.local_ba) {
     if (options_.inline_mapping) {
       mapping::local_bundle_adjustment(map_, kid, camera_, options_.ba);
@@ -591,6 +594,25 @@ KeyframeId Tracker::insert_keyframe(FrameFeatures&& f, const Matched& m, const S
     if (p != kNoPoint) last_matches_.push_back(p);
   }
   return kid;
+}
+
+std::vector<KeyframeId> Tracker::cull_keyframes(KeyframeId newest, KeyframeId previous) {
+  std::vector<KeyframeId> culled;
+  if (options_.keyframe_cull_redundancy <= 0.0 || map_.num_keyframes() < 3) return culled;
+  const KeyframeId first = map_.keyframes().begin()->first;
+  std::vector<KeyframeId> candidates;
+  for (const auto& [id, w] : map_.keyframe(newest)->connections) {
+    (void)w;
+    if (id != newest && id != previous && id != first) candidates.push_back(id);
+  }
+  for (KeyframeId id : candidates) {
+    if (map_.redundancy(id, options_.close_depth, options_.keyframe_cull_observers) >
+        options_.keyframe_cull_redundancy) {
+      map_.erase_keyframe(id);
+      culled.push_back(id);
+    }
+  }
+  return culled;
 }
 
 std::optional<mapping::LocalBaProblem> Tracker::take_local_ba() {

@@ -63,6 +63,12 @@ struct TrackerOptions {
   int min_frames_between_keyframes = 0;
   double close_depth = 3.0;  // metres: "close" points are reliable for new map points
   int min_new_points = 100;  // per keyframe, nearest first, even beyond close_depth
+  // Keyframe culling (ORB-SLAM's local mapping): with each new keyframe, a covisible keyframe
+  // whose close points are this redundant (Map::redundancy, seen by keyframe_cull_observers
+  // others) is erased, so a robot that keeps revisiting a place keeps a bounded map. The first
+  // keyframe and the one before the new keyframe are kept. 0: no culling.
+  double keyframe_cull_redundancy = 0.9;
+  int keyframe_cull_observers = 3;
   // Local BA inside track() (tests, single-threaded use), or handed out by take_local_ba()
   // for pipeline/'s local-mapping thread to solve and apply_local_ba() to write back.
   bool inline_mapping = true;
@@ -98,6 +104,8 @@ struct TrackResult {
   double prior_chi2 = 0.0;               // the final pose's disagreement with the MotionPrior
   bool relocalization_rejected = false;  // too far from the prediction
   mapping::KeyframeId keyframe_id = -1;  // the new keyframe, when there is one
+  // Keyframes erased as redundant when the new one came (place recognition forgets them).
+  std::vector<mapping::KeyframeId> culled_keyframes;
   StageTimes times;
 };
 
@@ -154,6 +162,10 @@ class Tracker {
   PoseOptimizerResult optimize(const FrameFeatures& f, Matched& m, const SE3& T_c_w) const;
   bool need_keyframe(const FrameFeatures& f, const Matched& m, int inliers) const;
   mapping::KeyframeId insert_keyframe(FrameFeatures&& f, const Matched& m, const SE3& T_w_c);
+  // Erases the new keyframe's redundant neighbours (TrackerOptions::keyframe_cull_redundancy);
+  // returns their ids.
+  std::vector<mapping::KeyframeId> cull_keyframes(mapping::KeyframeId newest,
+                                                  mapping::KeyframeId previous);
   void update_reference(const Matched& m);
   TrackResult initialize(FrameFeatures&& f, const std::optional<SE3>& predicted);
   // A keyframe at T_w_c seeding points from its depth; false when it has too few.
@@ -174,6 +186,7 @@ class Tracker {
   int lost_frames_ = 0;                // frames since the track was lost
   mapping::KeyframeId reference_kf_ = -1;
   mapping::KeyframeId last_kf_ = -1;
+  std::vector<mapping::KeyframeId> culled_;     // by the last insert_keyframe, for TrackResult
   std::vector<mapping::PointId> last_matches_;  // points matched in the last good frame
   int frames_since_keyframe_ = 0;
 };

@@ -76,6 +76,73 @@ TEST(Map, CullsPointsSeenByTooFewKeyframes) {
   EXPECT_EQ(map.keyframe(k0)->point_of_feature[25], kNoPoint);
 }
 
+// Keyframes 1..4 see the first 30 of keyframe 0's 40 points (at its pyramid level); keyframe 4
+// also sees points of its own.
+struct CullingScene {
+  Map map;
+  std::vector<KeyframeId> kf;
+  CullingScene() {
+    kf.push_back(map.add_keyframe(0, SE3(), grid_features(40, 2.0)));
+    map.create_points_from_depth(kf[0], 40, 10.0);
+    for (int k = 1; k <= 4; ++k) {
+      kf.push_back(map.add_keyframe(k, SE3(), grid_features(40, 2.0)));
+      for (int i = 0; i < 30; ++i) {
+        map.add_observation(map.keyframe(kf[0])->point_of_feature[static_cast<std::size_t>(i)],
+                            kf.back(), i);
+      }
+    }
+    map.create_points_from_depth(kf[4], 40, 10.0);  // features 30..39 of keyframe 4
+    for (KeyframeId id : kf) map.update_connections(id, 5);
+  }
+};
+
+TEST(Map, RedundancyIsTheShareOfClosePointsOthersSeeAtTheSameScale) {
+  CullingScene s;
+  // Keyframe 0: 30 of 40 points seen by 4 others.
+  EXPECT_DOUBLE_EQ(s.map.redundancy(s.kf[0], 10.0, 3), 30.0 / 40.0);
+  // Keyframes 1..3: every point they see, 4 others see too.
+  EXPECT_DOUBLE_EQ(s.map.redundancy(s.kf[1], 10.0, 3), 1.0);
+  // Keyframe 4: its own 10 points no one else sees.
+  EXPECT_DOUBLE_EQ(s.map.redundancy(s.kf[4], 10.0, 3), 30.0 / 40.0);
+  // More observers than there are keyframes: nothing is redundant.
+  EXPECT_DOUBLE_EQ(s.map.redundancy(s.kf[1], 10.0, 5), 0.0);
+  // Far points do not count (grid_features' depths run from 2.0 to 2.39 m).
+  EXPECT_DOUBLE_EQ(s.map.redundancy(s.kf[1], 1.0, 3), 0.0);
+  // Seen only at a coarser level by the others, a point is not redundant.
+  for (KeyframeId id : {s.kf[2], s.kf[3], s.kf[4]}) {
+    for (auto& k : s.map.keyframe(id)->features.keypoints) k.level += 2;
+  }
+  EXPECT_DOUBLE_EQ(s.map.redundancy(s.kf[1], 10.0, 3), 0.0);
+  EXPECT_DOUBLE_EQ(s.map.redundancy(s.kf[9], 10.0, 3), 0.0);  // no such keyframe
+}
+
+TEST(Map, ErasingAKeyframeRemovesItsObservationsEdgesAndLonePoints) {
+  CullingScene s;
+  ASSERT_TRUE(s.map.keyframe(s.kf[4])->connections.count(s.kf[2]));
+  const std::size_t points = s.map.num_points();  // 40 of keyframe 0, 10 of keyframe 4
+  ASSERT_EQ(points, 50u);
+  s.map.erase_keyframe(s.kf[4]);
+  EXPECT_EQ(s.map.keyframe(s.kf[4]), nullptr);
+  EXPECT_EQ(s.map.num_keyframes(), 4u);
+  EXPECT_EQ(s.map.num_points(), 40u);  // the 10 only keyframe 4 saw are gone
+  for (const auto& [id, p] : s.map.points()) {
+    EXPECT_FALSE(p.observations.count(s.kf[4])) << id;
+    EXPECT_FALSE(p.observations.empty()) << id;
+  }
+  for (const auto& [id, k] : s.map.keyframes()) {
+    EXPECT_FALSE(k.connections.count(s.kf[4])) << id;
+    for (const auto& [other, w] : k.connections) {
+      EXPECT_EQ(s.map.keyframe(other)->connections.at(id), w);  // symmetric
+    }
+  }
+  // The shared points now have 3 other observers each: enough for 3, not for 4.
+  EXPECT_DOUBLE_EQ(s.map.redundancy(s.kf[0], 10.0, 3), 30.0 / 40.0);
+  EXPECT_DOUBLE_EQ(s.map.redundancy(s.kf[1], 10.0, 3), 1.0);
+  EXPECT_DOUBLE_EQ(s.map.redundancy(s.kf[1], 10.0, 4), 0.0);
+  s.map.erase_keyframe(s.kf[4]);  // twice: nothing happens
+  EXPECT_EQ(s.map.num_keyframes(), 4u);
+}
+
 TEST(Map, CovisibilityCountsSharedPoints) {
   Map map;
   const KeyframeId k0 = map.add_keyframe(0, SE3(), grid_features(60, 2.0));

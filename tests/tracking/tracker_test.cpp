@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <iostream>
+#include <memory>
 
 #include "io/image_io.hpp"
 #include "synthetic_scene.hpp"
@@ -177,6 +178,73 @@ TEST(Tracker, RelocalizationMustAgreeWithTheAttitudeHint) {
       EXPECT_TRUE(r.relocalization_rejected);
       EXPECT_TRUE(r.T_w_c.is_finite());
     }
+  }
+}
+
+// Back and forth over the same short path: with culling the map keeps fewer keyframes than
+// were inserted, every culled one is gone from it, and it stays consistent and accurate.
+TEST(Tracker, KeyframeCullingKeepsARevisitedMapSmallAndConsistent) {
+  const PinholeCamera cam = synthetic_camera();
+  const test::SyntheticScene scene = test::SyntheticScene::office();
+  const std::vector<SE3> leg = test::smooth_path(12);
+  std::vector<SE3> path;
+  for (int pass = 0; pass < 4; ++pass) {
+    for (std::size_t i = 0; i < leg.size(); ++i)
+      path.push_back(leg[pass % 2 ? leg.size() - 1 - i : i]);
+  }
+  struct Outcome {
+    std::size_t inserted = 0, culled = 0, in_map = 0;
+    double rmse = 0.0;
+  };
+  const auto run = [&](double redundancy, std::unique_ptr<Tracker>& tracker) {
+    TrackerOptions o;
+    o.keyframe_cull_redundancy = redundancy;
+    // A keyframe every frame (as a crowded scene nearly does), so revisits leave redundant ones.
+    o.keyframe_ratio = 2.0;
+    tracker = std::make_unique<Tracker>(cam, o);
+    tracker->set_initial_pose(path[0]);
+    Outcome r;
+    double sum2 = 0.0;
+    for (std::size_t i = 0; i < path.size(); ++i) {
+      const RgbdFrame frame = scene.render(cam, path[i], static_cast<Timestamp>(i) * 33'333'333);
+      const TrackResult t = tracker->track(frame);
+      EXPECT_EQ(t.state, TrackingState::kOk) << "frame " << i;
+      r.inserted += t.new_keyframe ? 1 : 0;
+      r.culled += t.culled_keyframes.size();
+      for (mapping::KeyframeId id : t.culled_keyframes) {
+        EXPECT_EQ(tracker->map().keyframe(id), nullptr);
+        EXPECT_NE(id, t.keyframe_id);
+      }
+      sum2 += (t.T_w_c.translation() - path[i].translation()).squaredNorm();
+    }
+    r.in_map = tracker->map().num_keyframes();
+    r.rmse = std::sqrt(sum2 / static_cast<double>(path.size()));
+    return r;
+  };
+  std::unique_ptr<Tracker> culling, keeping;
+  const Outcome c = run(0.9, culling);
+  const Outcome k = run(0.0, keeping);
+  std::cerr << "culling: " << c.inserted << " keyframes inserted, " << c.culled << " culled, "
+            << c.in_map << " kept, RMSE " << c.rmse * 1000 << " mm; without: " << k.in_map
+            << " kept, RMSE " << k.rmse * 1000 << " mm\n";
+  EXPECT_EQ(k.culled, 0u);
+  EXPECT_EQ(k.in_map, k.inserted);
+  EXPECT_GT(c.culled, 0u);
+  EXPECT_EQ(c.in_map + c.culled, c.inserted);
+  EXPECT_LT(c.in_map, k.in_map);
+  EXPECT_LT(c.rmse, 0.01);
+  // Consistent: every observation links a live keyframe and point both ways.
+  const mapping::Map& m = culling->map();
+  for (const auto& [pid, p] : m.points()) {
+    EXPECT_FALSE(p.observations.empty());
+    for (const auto& [kid, feature] : p.observations) {
+      const mapping::Keyframe* kf = m.keyframe(kid);
+      ASSERT_NE(kf, nullptr) << "point " << pid << " observed by culled keyframe " << kid;
+      EXPECT_EQ(kf->point_of_feature[static_cast<std::size_t>(feature)], pid);
+    }
+  }
+  for (const auto& [kid, kf] : m.keyframes()) {
+    for (const auto& [other, w] : kf.connections) EXPECT_NE(m.keyframe(other), nullptr);
   }
 }
 
