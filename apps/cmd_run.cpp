@@ -36,6 +36,7 @@ struct RunFlags {
   bool no_loop = false;
   bool realtime = false;
   double duration = -1.0;  // sim: scenes only
+  bool no_movers = false;  // sim: scenes only
 };
 
 std::string dataset_dir_of(const std::string& spec) {
@@ -204,6 +205,7 @@ void setup_run(CLI::App& app) {
                 "as a live sensor: frames fed at their stamps' pace, threads run free (detection "
                 "may lag and drop) instead of in lock-step");
   cmd->add_option("--duration", flags->duration, "seconds of a sim: scene (default: its own)");
+  cmd->add_flag("--no-movers", flags->no_movers, "a sim: scene without its walkers and vehicles");
   cmd->callback([flags] {
     RunOptions opt;
     std::unique_ptr<kestrel::io::MeasurementSource> source;
@@ -215,6 +217,7 @@ void setup_run(CLI::App& app) {
       }
       kestrel::sim::ScenarioOverrides over;
       over.duration = flags->duration;
+      over.no_movers = flags->no_movers;
       auto live = std::make_unique<kestrel::sim::LiveSource>(
           kestrel::sim::load_scenario(flags->dataset.substr(4), over));
       const kestrel::sim::LiveSource* truth = live.get();
@@ -222,7 +225,9 @@ void setup_run(CLI::App& app) {
       opt.truth_masks = [truth](kestrel::Timestamp t) { return truth->truth_mask(t); };
       source = std::move(live);
     } else {
-      if (flags->duration > 0) throw kestrel::Error("--duration applies to sim: scenes only");
+      if (flags->duration > 0 || flags->no_movers) {
+        throw kestrel::Error("--duration and --no-movers apply to sim: scenes only");
+      }
       kestrel::io::DatasetOptions dopt;
       dopt.config_file = flags->config;
       source = kestrel::io::open_dataset(flags->dataset, dopt);
