@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 namespace kestrel::dynamic {
 namespace {
@@ -56,7 +57,40 @@ double homography_residual(const cv::Matx33d& H, const cv::Point2f& prev, const 
   return std::hypot(p[0] / p[2] - cur.x, p[1] / p[2] - cur.y);
 }
 
+int pyramid_levels(const DynamicFilterOptions& opt) {
+  return std::max({opt.lk_levels, opt.lk_backward_levels, 0});
+}
+
 }  // namespace
+
+struct FlowPyramid::Levels {
+  std::vector<cv::Mat> pyramid;  // image and gradient levels, as cv::buildOpticalFlowPyramid
+  int requested_levels = 0;      // levels above the image asked for (fewer on a small image)
+  int window = 0;
+  std::shared_ptr<const std::vector<std::uint8_t>> source;  // the pixels it was built from
+  int width = 0, height = 0;
+
+  bool built_from(const Image& im, int win, int lv) const {
+    return source == im.data && width == im.width && height == im.height && window == win &&
+           requested_levels == lv;
+  }
+};
+
+FlowPyramid build_flow_pyramid(const Image& gray, const DynamicFilterOptions& opt) {
+  if (gray.empty() || gray.channels != 1 || gray.type != PixelType::kU8) {
+    throw std::invalid_argument("build_flow_pyramid: the image must be 8-bit, one channel");
+  }
+  auto lv = std::make_shared<FlowPyramid::Levels>();
+  const cv::Size win(opt.lk_window, opt.lk_window);
+  lv->requested_levels = pyramid_levels(opt);
+  cv::buildOpticalFlowPyramid(as_mat(gray), lv->pyramid, win, lv->requested_levels, true,
+                              cv::BORDER_REFLECT_101, cv::BORDER_CONSTANT, false);
+  lv->window = opt.lk_window;
+  lv->source = gray.data;
+  lv->width = gray.width;
+  lv->height = gray.height;
+  return FlowPyramid{std::move(lv)};
+}
 
 const char* to_string(LabelReason r) {
   switch (r) {
@@ -84,6 +118,10 @@ const char* to_string(LabelReason r) {
       return "depth-change";
     case LabelReason::kLongBaseline:
       return "long-baseline";
+    case LabelReason::kOutlineBackground:
+      return "outline-background";
+    case LabelReason::kOutlineNoDepth:
+      return "outline-no-depth";
   }
   return "?";
 }
@@ -125,6 +163,7 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
   out.residual3d_px.assign(n, -1.0f);
   out.depth_change.assign(n, -1.0f);
   out.box_of.assign(n, -1);
+  out.prev_points.assign(n, Vec2(-1.0, -1.0));
   out.box_moving.assign(in.boxes.size(), false);
   if (n == 0 || opt.mode == FilterMode::kOff) return out;
 
@@ -148,6 +187,10 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
   // The detected object's own depth: the median depth of the box's core (its central part,
   // where a person's torso or a car's body is), and which features lie at that depth.
   std::vector<bool> foreground(n, false);
+  // 1: behind the object with its window on the object's outline; 2: the same without depth.
+  std::vector<std::uint8_t> outline(n, 0);
+  const bool depth_image = in.cur_depth && !in.cur_depth->empty() &&
+                           in.cur_depth->type == PixelType::kU16 && in.cur_depth->channels == 1;
   if (use_boxes && in.depth_m.size() == n) {
     for (std::size_t b = 0; b < in.boxes.size(); ++b) {
       const BoxRegion& box = in.boxes[b];
@@ -171,6 +214,31 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
           foreground[i] = true;
         }
       }
+      if (!depth_image || !opt.outline_by_depth) continue;
+      const int r = std::max(1, opt.lk_window / 2);
+      for (std::size_t i = 0; i < n; ++i) {
+        if (foreground[i] || outline[i] ||
+            std::find(boxes_of[i].begin(), boxes_of[i].end(), static_cast<int>(b)) ==
+                boxes_of[i].end()) {
+          continue;
+        }
+        const bool behind = in.depth_m[i] > d_fg + band;
+        const bool no_depth = in.depth_m[i] <= 0;
+        if (!behind && !no_depth) continue;
+        const int u0 = static_cast<int>(std::lround(in.points[i].x()));
+        const int v0 = static_cast<int>(std::lround(in.points[i].y()));
+        bool on_object = false, beyond = false;
+        for (int v = std::max(0, v0 - r); v <= std::min(in.cur_depth->height - 1, v0 + r); ++v) {
+          const std::uint16_t* row = in.cur_depth->row<std::uint16_t>(v);
+          for (int u = std::max(0, u0 - r); u <= std::min(in.cur_depth->width - 1, u0 + r); ++u) {
+            if (!row[u]) continue;
+            const double z = row[u] / in.depth_scale;
+            on_object |= std::fabs(z - d_fg) <= band;
+            beyond |= z > d_fg + band;
+          }
+        }
+        if (on_object && beyond) outline[i] = behind ? 1 : 2;
+      }
     }
   }
 
@@ -185,30 +253,57 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
     return out;
   }
 
-  // 1. Flow from the current frame back to the previous one, forward-backward checked.
-  const cv::Mat prev = as_mat(*in.prev_gray);
-  const cv::Mat cur = as_mat(*in.cur_gray);
-  std::vector<cv::Point2f> pts_cur(n), pts_prev, pts_back;
+  // 1. Flow from the current frame back to the previous one, forward-backward checked, on
+  // pyramids built once per image (the previous one usually comes from the call before).
+  if (!in.prev_gray || !in.cur_gray) {
+    throw std::invalid_argument("classify_features: prev_gray and cur_gray are required");
+  }
+  const FlowPyramid cur_pyr = build_flow_pyramid(*in.cur_gray, opt);
+  const FlowPyramid prev_pyr =
+      in.prev_pyramid && !in.prev_pyramid->empty() &&
+              in.prev_pyramid->levels->built_from(*in.prev_gray, opt.lk_window, pyramid_levels(opt))
+          ? *in.prev_pyramid
+          : build_flow_pyramid(*in.prev_gray, opt);
+  if (in.cur_pyramid_out) *in.cur_pyramid_out = cur_pyr;
+  const int prev_cols = in.prev_gray->width, prev_rows = in.prev_gray->height;
+  std::vector<cv::Point2f> pts_cur(n), pts_prev(n), pts_back;
   for (std::size_t i = 0; i < n; ++i) {
     pts_cur[i] =
         cv::Point2f(static_cast<float>(in.points[i].x()), static_cast<float>(in.points[i].y()));
   }
+  // Initial flow: where the IMU rotation puts each point in the previous frame (the rotation
+  // homography's inverse, K R^T K^-1); without it, the point itself.
+  const int levels = opt.lk_levels;
+  int flags = 0;
+  if (in.R_cur_prev && opt.lk_rotation_prior) {
+    const cv::Matx33d H_prev_cur = to_matx(in.K * in.R_cur_prev->transpose() * in.K.inverse());
+    for (std::size_t i = 0; i < n; ++i) {
+      const cv::Vec3d p = H_prev_cur * cv::Vec3d(pts_cur[i].x, pts_cur[i].y, 1.0);
+      pts_prev[i] = std::fabs(p[2]) > 1e-12 ? cv::Point2f(static_cast<float>(p[0] / p[2]),
+                                                          static_cast<float>(p[1] / p[2]))
+                                            : pts_cur[i];
+    }
+    flags = cv::OPTFLOW_USE_INITIAL_FLOW;
+  }
   std::vector<unsigned char> st1, st2;
-  std::vector<float> err;
   const cv::Size win(opt.lk_window, opt.lk_window);
-  const cv::TermCriteria term(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 20, 0.03);
-  cv::calcOpticalFlowPyrLK(cur, prev, pts_cur, pts_prev, st1, err, win, opt.lk_levels, term);
+  const cv::TermCriteria term(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, opt.lk_iterations,
+                              opt.lk_epsilon_px);
+  cv::calcOpticalFlowPyrLK(cur_pyr.levels->pyramid, prev_pyr.levels->pyramid, pts_cur, pts_prev,
+                           st1, cv::noArray(), win, levels, term, flags, opt.lk_min_eigen);
   pts_back = pts_cur;
-  cv::calcOpticalFlowPyrLK(prev, cur, pts_prev, pts_back, st2, err, win, opt.lk_levels, term,
+  cv::calcOpticalFlowPyrLK(prev_pyr.levels->pyramid, cur_pyr.levels->pyramid, pts_prev, pts_back,
+                           st2, cv::noArray(), win, std::min(opt.lk_backward_levels, levels), term,
                            cv::OPTFLOW_USE_INITIAL_FLOW);
   std::vector<bool> valid(n, false);
   for (std::size_t i = 0; i < n; ++i) {
     valid[i] = st1[i] && st2[i] &&
                std::hypot(pts_back[i].x - pts_cur[i].x, pts_back[i].y - pts_cur[i].y) <=
                    opt.fb_max_error_px &&
-               pts_prev[i].x >= 0 && pts_prev[i].y >= 0 && pts_prev[i].x < prev.cols &&
-               pts_prev[i].y < prev.rows;
+               pts_prev[i].x >= 0 && pts_prev[i].y >= 0 && pts_prev[i].x < prev_cols &&
+               pts_prev[i].y < prev_rows;
     out.tracked += valid[i] ? 1 : 0;
+    if (valid[i]) out.prev_points[i] = Vec2(pts_prev[i].x, pts_prev[i].y);
   }
 
   const cv::Matx33d Kcv = to_matx(in.K);
@@ -434,6 +529,17 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
     const bool background_in_box =
         !boxes_of[i].empty() && !foreground[i] && in.depth_m.size() == n && in.depth_m[i] > 0;
     const bool in_box = !boxes_of[i].empty() && !background_in_box;
+    // On the object's outline flow mixes both sides: the feature's own depth decides.
+    if (outline[i] == 1 && !depth_moved(i)) {
+      out.labels[i] = FeatureLabel::kStatic;
+      out.reasons[i] = LabelReason::kOutlineBackground;
+      continue;
+    }
+    if (outline[i] == 2 && opt.outline_no_depth_dynamic) {
+      out.labels[i] = FeatureLabel::kDynamic;
+      out.reasons[i] = LabelReason::kOutlineNoDepth;
+      continue;
+    }
     if (!valid[i]) {
       out.labels[i] = in_box ? FeatureLabel::kDynamic : FeatureLabel::kUnknown;
       out.reasons[i] = in_box ? LabelReason::kNoFlowInBox : LabelReason::kNoFlow;

