@@ -157,34 +157,12 @@ AgentRunSummary run_agent(io::MeasurementSource& source, const AgentRunOptions& 
       nav::PlannerOptions po;
       po.robot_radius = options.robot_radius;
       // The camera looks ahead and never sees the floor under the robot, so the cells it stands
-      // on may still be unknown; the robot being there proves them free.
-      maps::OccupancyGrid g = grid;
-      const int r = static_cast<int>(std::ceil(options.robot_radius / g.resolution())) + 1;
-      // Nor may the map reach back to where the robot stands (the first keyframe sees from
-      // its depth range on): the grid grows, unknown, to hold the robot's disc.
-      const double res = g.resolution();
-      const Vec2 lo = g.origin().cwiseMin(start - Vec2::Constant((r + 1) * res));
-      const Vec2 hi = (g.origin() + Vec2(g.width() * res, g.height() * res))
-                          .cwiseMax(start + Vec2::Constant((r + 1) * res));
-      const Eigen::Vector2i shift = ((g.origin() - lo) / res).array().round().cast<int>();
-      const Vec2 origin = g.origin() - shift.cast<double>() * res;
-      const int w = static_cast<int>(std::ceil((hi.x() - origin.x()) / res));
-      const int h = static_cast<int>(std::ceil((hi.y() - origin.y()) / res));
-      if (shift.x() > 0 || shift.y() > 0 || w > g.width() || h > g.height()) {
-        maps::OccupancyGrid grown(std::max(w, g.width() + shift.x()),
-                                  std::max(h, g.height() + shift.y()), res, origin);
-        for (int y = 0; y < g.height(); ++y)
-          for (int x = 0; x < g.width(); ++x)
-            grown.set({x + shift.x(), y + shift.y()}, g.at({x, y}));
-        g = std::move(grown);
-      }
-      if (const auto c = g.cell_of(start)) {
-        for (int dy = -r; dy <= r; ++dy)
-          for (int dx = -r; dx <= r; ++dx) {
-            const maps::GridCell n{c->x + dx, c->y + dy};
-            if (dx * dx + dy * dy <= r * r && g.contains(n) && g.at(n) < 0) g.set(n, 0);
-          }
-      }
+      // on may still be unknown; the robot being there proves them free (footprint clearing,
+      // which the grid has for the keyframes: this is the latest pose). Nor may the map reach
+      // back to where the robot stands: the grid grows, unknown, to hold the robot's disc.
+      const double res = grid.resolution();
+      const double disc = (std::ceil(options.robot_radius / res) + 1.0) * res;
+      const maps::OccupancyGrid g = maps::clear_footprints(grid, {{start, disc}});
       plan = nav::plan_path(g, start, goal, po);
     }
     if (!plan.ok()) return {c.id, 0, AckResult::kRejected, plan.message};
@@ -281,6 +259,9 @@ AgentRunSummary run_agent(io::MeasurementSource& source, const AgentRunOptions& 
         kf.depth = &f.depth;
         kf.depth_scale = f.depth_scale;
         kf.camera = calib.camera;
+        // A ground robot's body stood where it was: its disc is free in the grid.
+        if (options.link.role == "ugv")
+          kf.footprint = maps::Footprint{T_w_body.translation().head<2>(), options.robot_radius};
         builder.insert(kf);
         new_keyframes = true;
       }

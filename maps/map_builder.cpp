@@ -184,6 +184,8 @@ std::size_t MapBuilder::insert(const MapKeyframe& kf) {
   }
   const Vec3 origin = kf.T_w_c.translation();
   camera_xy_.push_back(origin.head<2>());
+  views_.push_back(frustum_of(kf.T_w_c, kf.camera, options_.min_depth, options_.octree.max_range));
+  if (kf.footprint && kf.footprint->radius > 0.0) footprints_.push_back(*kf.footprint);
   if (!far_rays.empty()) octree_.insert_free_rays(origin, far_rays);
   octree_.insert_scan(origin, hits, carve_ends);
   return hits.size();
@@ -235,10 +237,19 @@ std::vector<CloudPoint> MapBuilder::clean_cloud() const {
 }
 
 OccupancyGrid MapBuilder::grid() const {
-  OccupancyGrid g =
-      octree_.project(options_.grid_z_min, options_.grid_z_max, options_.grid_free_clearance);
-  if (g.empty() || !(options_.reachable_seed_radius > 0.0)) return g;
-  mark_unreachable_unknown(g, camera_xy_, options_.reachable_seed_radius);
+  const BandColumns cols = octree_.project_columns(options_.grid_z_min, options_.grid_z_max,
+                                                   options_.grid_free_clearance);
+  std::vector<std::uint32_t> excused;
+  if (options_.clearance_spares_unobservable) excused = unobservable_layers(cols, views_);
+  OccupancyGrid g = resolve_columns(cols, excused.empty() ? nullptr : &excused);
+  if (g.empty()) return g;
+  // Reachability on what the cameras saw; the footprints after it: they are free because the
+  // robot stood there, whether or not its view joins them (a camera whose band starts above it
+  // sees no band voxel within ~0.5 m), and a footprint must not become the seed nearest a
+  // camera in place of the cells it saw.
+  if (options_.reachable_seed_radius > 0.0)
+    mark_unreachable_unknown(g, camera_xy_, options_.reachable_seed_radius);
+  if (!footprints_.empty()) g = clear_footprints(g, footprints_);
   return g;
 }
 

@@ -3,12 +3,14 @@
 // labelled cloud, an OctoMap with free-space carving and the 2D grid of a height band, from
 // static pixels only. One call per keyframe from the mapping thread; no threads here.
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "core/camera.hpp"
 #include "core/image.hpp"
 #include "core/se3.hpp"
+#include "maps/free_space_rule.hpp"
 #include "maps/occupancy_grid.hpp"
 #include "maps/occupancy_octree.hpp"
 #include "maps/voxel_cloud.hpp"
@@ -45,7 +47,11 @@ struct MapBuilderOptions {
   double reachable_seed_radius = 3.0;
   // A cell is free only when its band is seen free over this height from the band's base:
   // room for a robot's body, not only a gap under something (a car's body 0.3 m up).
-  double grid_free_clearance = 0.0;  // metres (0.1..0.5 m up); 0: any free voxel of the band
+  double grid_free_clearance = 0.4;  // metres (0.1..0.5 m up); 0: any free voxel of the band
+  // ... except the clearance layers of a cell that no keyframe's camera had in view (a low
+  // camera's blind zone around itself, maps/free_space_rule.hpp): those are judged by what was
+  // seen of the band. false: every clearance layer must be seen free.
+  bool clearance_spares_unobservable = true;
 };
 
 struct MapKeyframe {
@@ -58,6 +64,9 @@ struct MapKeyframe {
   const std::vector<std::uint8_t>* static_mask = nullptr;
   // Per pixel: 0 = no label, else COCO class id + 1. Null: no labels.
   const std::vector<std::uint16_t>* labels = nullptr;
+  // A ground robot's body where the frame was taken: its disc is free in the grid (footprint
+  // clearing). None for a hand-held camera or a flying one (it passes over obstacles).
+  std::optional<Footprint> footprint;
 };
 
 struct MapBoxRegion {  // a pixel box (max exclusive), e.g. a moving detection
@@ -95,8 +104,9 @@ class MapBuilder {
   // Cloud points whose voxel the OctoMap still holds occupied or has never seen: points of a
   // mover that was not masked are dropped once later rays have carved through them.
   std::vector<CloudPoint> clean_cloud() const;
-  // The 2D grid of the height band; free cells no camera could reach are unknown
-  // (options.reachable_seed_radius).
+  // The 2D grid of the height band under the free-space rule (grid_free_clearance and
+  // clearance_spares_unobservable), the keyframes' footprints cleared; free cells no camera
+  // could reach are unknown (options.reachable_seed_radius).
   OccupancyGrid grid() const;
 
   // DIR/cloud.ply, DIR/octomap.bt, DIR/map.pgm + DIR/map.yaml. Creates DIR.
@@ -113,8 +123,10 @@ class MapBuilder {
   OccupancyOctree octree_;
   VoxelCloud cloud_;
   PinholeCamera ray_camera_;
-  std::vector<Vec3> rays_;       // unprojected pixel rays (z = 1), cached per camera
-  std::vector<Vec2> camera_xy_;  // where the keyframes were taken (world x, y)
+  std::vector<Vec3> rays_;             // unprojected pixel rays (z = 1), cached per camera
+  std::vector<Vec2> camera_xy_;        // where the keyframes were taken (world x, y)
+  std::vector<ViewFrustum> views_;     // what each keyframe's camera could see
+  std::vector<Footprint> footprints_;  // where a ground robot stood
 };
 
 }  // namespace kestrel::maps

@@ -9,6 +9,7 @@
 #include <limits>
 
 #include "core/error.hpp"
+#include "maps/free_space_rule.hpp"
 
 namespace kestrel::maps {
 
@@ -115,24 +116,28 @@ std::vector<Vec3> OccupancyOctree::occupied_voxels() const {
 
 std::size_t OccupancyOctree::leaf_count() const { return impl_->tree.getNumLeafNodes(); }
 
-OccupancyGrid OccupancyOctree::project(double z_min, double z_max, double free_clearance) const {
+BandColumns OccupancyOctree::project_columns(double z_min, double z_max,
+                                             double free_clearance) const {
   const auto& t = impl_->tree;
   const double res = t.getResolution();
+  BandColumns cols;
+  cols.layer_height = res;
   double x0, y0, z0, x1, y1, z1;
   t.getMetricMin(x0, y0, z0);
   t.getMetricMax(x1, y1, z1);
-  if (t.size() == 0 || !(x1 > x0) || !(y1 > y0)) return OccupancyGrid();
+  if (t.size() == 0 || !(x1 > x0) || !(y1 > y0)) return cols;
   // Snap the origin to the voxel lattice so grid cells and voxel columns coincide.
   const double ox = std::floor(x0 / res + 1e-6) * res;
   const double oy = std::floor(y0 / res + 1e-6) * res;
   const int w = static_cast<int>(std::ceil((x1 - ox) / res - 1e-6));
   const int h = static_cast<int>(std::ceil((y1 - oy) / res - 1e-6));
-  OccupancyGrid grid(w, h, res, Vec2(ox, oy), kUnknown);
+  cols.grid = OccupancyGrid(w, h, res, Vec2(ox, oy), kUnknown);
+  OccupancyGrid& grid = cols.grid;
   // Per cell, which voxel layers of the band's lowest free_clearance metres are seen free.
-  const int layers = std::clamp(static_cast<int>(std::ceil(free_clearance / res - 1e-6)), 0, 31);
-  const std::uint32_t all_layers = (std::uint32_t{1} << layers) - 1;
-  std::vector<std::uint32_t> free_layers(layers > 0 ? grid.cells().size() : 0, 0);
-  const double band_base = std::floor(z_min / res + 0.5) * res;
+  cols.layers = std::clamp(static_cast<int>(std::ceil(free_clearance / res - 1e-6)), 0, 31);
+  cols.layer_base = std::floor(z_min / res + 0.5) * res;
+  const int layers = cols.layers;
+  if (layers > 0) cols.free_layers.assign(grid.cells().size(), 0);
   for (auto it = t.begin_leafs(), end = t.end_leafs(); it != end; ++it) {
     const double size = it.getSize();
     const octomap::point3d c = it.getCoordinate();
@@ -144,26 +149,30 @@ OccupancyGrid OccupancyOctree::project(double z_min, double z_max, double free_c
     const int n = std::max(1, static_cast<int>(std::lround(size / res)));
     const int cx0 = static_cast<int>(std::floor((c.x() - size / 2 - ox) / res + 0.5));
     const int cy0 = static_cast<int>(std::floor((c.y() - size / 2 - oy) / res + 0.5));
+    // The voxel's layers from the band's base, clipped to the clearance.
+    const int l0 = static_cast<int>(std::floor((c.z() - size / 2 - cols.layer_base) / res + 0.5));
+    std::uint32_t bits = 0;
+    if (!occ)
+      for (int l = std::max(0, l0); l < std::min(layers, l0 + n); ++l)
+        bits |= std::uint32_t{1} << l;
     for (int j = 0; j < n; ++j) {
       for (int i = 0; i < n; ++i) {
         const GridCell cell{cx0 + i, cy0 + j};
         if (!grid.contains(cell)) continue;
         if (occ) {
           grid.set(cell, kOccupied);
-        } else if (layers > 0) {
-          // The voxel's layers from the band's base, clipped to the clearance.
-          const int l0 = static_cast<int>(std::floor((c.z() - size / 2 - band_base) / res + 0.5));
-          for (int l = std::max(0, l0); l < std::min(layers, l0 + n); ++l)
-            free_layers[grid.index(cell)] |= std::uint32_t{1} << l;
-        } else if (grid.at(cell) == kUnknown) {
-          grid.set(cell, kFree);
+          continue;
         }
+        if (grid.at(cell) == kUnknown) grid.set(cell, kFree);
+        if (bits) cols.free_layers[grid.index(cell)] |= bits;
       }
     }
   }
-  for (std::size_t i = 0; i < free_layers.size(); ++i)
-    if (grid.cells()[i] == kUnknown && free_layers[i] == all_layers) grid.cells()[i] = kFree;
-  return grid;
+  return cols;
+}
+
+OccupancyGrid OccupancyOctree::project(double z_min, double z_max, double free_clearance) const {
+  return resolve_columns(project_columns(z_min, z_max, free_clearance), nullptr);
 }
 
 void OccupancyOctree::write_binary(const std::string& path) const {

@@ -12,6 +12,8 @@
 
 namespace kestrel::maps {
 
+struct BandColumns;  // maps/free_space_rule.hpp
+
 struct OctreeOptions {
   double resolution = 0.10;  // metres, leaf voxel edge
   double max_range = 8.0;    // metres; longer rays carve free space up to here only
@@ -50,6 +52,9 @@ class OccupancyOctree {
   // lies above it, free when only free voxels of the band do and they fill the band's lowest
   // `free_clearance` metres (0: any free voxel will do), unknown otherwise.
   OccupancyGrid project(double z_min, double z_max, double free_clearance = 0.0) const;
+  // The band's columns behind that rule: occupied, band-free or unknown per cell, and which of
+  // the lowest free_clearance metres' voxel layers are seen free (maps/free_space_rule.hpp).
+  BandColumns project_columns(double z_min, double z_max, double free_clearance) const;
 
   void write_binary(const std::string& path) const;  // .bt, octovis/octomap_server read it
   static OccupancyOctree read_binary(const std::string& path);

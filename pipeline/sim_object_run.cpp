@@ -58,6 +58,7 @@ SimObjectScores run_sim_objects(const SimObjectRunOptions& o) {
   std::map<int, int> given;  // world object id -> keyframes it was given as a detection
   const int min_pixels = 400;
   SimObjectScores s;
+  const bool ground_robot = sim.scenario().trajectory.kind == "ugv" && o.robot_radius > 0.0;
   for (int k = 0; k < sim.frame_count(); k += o.keyframe_every) {
     const sim::SimFrame f = sim.render(k);
     const SE3 T_w_c = sim.camera_pose(f.time);
@@ -118,6 +119,9 @@ SimObjectScores run_sim_objects(const SimObjectRunOptions& o) {
       mk.depth_scale = calib.depth_scale;
       mk.camera = calib.camera;
       mk.static_mask = o.mask_movers ? &static_mask : nullptr;
+      if (ground_robot)
+        mk.footprint = maps::Footprint{
+            (T_w_c * calib.T_body_camera.inverse()).translation().head<2>(), o.robot_radius};
       t0 = std::chrono::steady_clock::now();
       maps_builder.insert(mk);
       map_ms.push_back(ms_since(t0));
