@@ -87,6 +87,7 @@ kestrel::report::RunRecord record_of(const std::string& name, const std::string&
   for (const auto& [stage, l] : s.stages)
     r.stages.push_back({stage, l.count, l.p50_ms, l.p90_ms, l.max_ms});
   r.counters = s.counters;
+  for (const auto& m : s.memory) r.memory_mib.emplace_back(m.stream_s, m.rss_mib);
   return r;
 }
 
@@ -319,6 +320,7 @@ void setup_demo(CLI::App& app) {
       auto source = kestrel::io::open_dataset("kestrel:" + seq);
       RunOptions opt;
       opt.dataset_dir = seq;
+      opt.memory_sample_s = 1.0;
       opt.detector = i == 0 ? flags->detector : "none";
       opt.dynamic = modes[i];
       opt.out_dir = flags->out + "/" + names[i];

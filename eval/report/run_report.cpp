@@ -192,6 +192,21 @@ std::string trajectory_plots(const ReportInput& in, const std::vector<Ape>& apes
   return h;
 }
 
+// What a long run's memory does: flat once the map stops growing, a slope where it leaks.
+std::string memory_plot(const ReportInput& in) {
+  SvgPlot plot("Resident memory along the run", "t (s)", "RSS (MiB)");
+  bool any = false;
+  for (std::size_t i = 0; i < in.runs.size(); ++i) {
+    const RunRecord& r = in.runs[i];
+    if (r.memory_mib.size() < 2) continue;
+    PlotSeries s{r.name, color_of(i), {}, {}, false, false};
+    for (const auto& [t, mib] : r.memory_mib) s.x.push_back(t), s.y.push_back(mib);
+    plot.add(s);
+    any = true;
+  }
+  return any ? "<div class=\"plots\">\n" + plot.svg() + "</div>\n" : "";
+}
+
 std::string frame_strip(const ReportInput& in) {
   if (in.frames.empty()) return "<p>No frames were passed to the report.</p>\n";
   std::string h = "<div class=\"strip\">\n";
@@ -298,7 +313,7 @@ std::string render_report(const ReportInput& in) {
   h += "<h2>Dynamic-feature removal</h2>\n" + removal_table(in);
   h += "<h2>Frames</h2>\n" + frame_strip(in);
   if (in.grid) h += "<h2>Occupancy grid</h2>\n" + grid_section(*in.grid);
-  h += "<h2>Per-stage timing</h2>\n" + timing_tables(in);
+  h += "<h2>Per-stage timing</h2>\n" + timing_tables(in) + memory_plot(in);
   h += "<h2>Provenance</h2>\n<p>Command:</p>\n<pre id=\"command\">" + xml_escape(in.command_line) +
        "</pre>\n<p>Version: kestrel " + xml_escape(in.version) +
        "</p>\n<p>Config:</p>\n<pre id=\"config\">" +

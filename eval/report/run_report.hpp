@@ -6,6 +6,7 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/image.hpp"
@@ -30,6 +31,8 @@ struct RunRecord {
   double tracking_ms_median = 0, detector_ms_median = 0, wall_seconds = 0;
   std::vector<StageTiming> stages;
   std::map<std::string, std::size_t> counters;
+  // Resident memory along the run: (seconds of the stream, MiB); empty when not sampled.
+  std::vector<std::pair<double, double>> memory_mib;
 };
 
 struct FrameBox {

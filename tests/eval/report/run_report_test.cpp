@@ -104,6 +104,16 @@ TEST(RunReport, HoldsPlotsTablesAndProvenance) {
   EXPECT_EQ(h.find("id=\"grid\""), std::string::npos);  // no grid passed
 }
 
+TEST(RunReport, PlotsResidentMemoryWhenTheRunSampledIt) {
+  ReportInput in = sample_input();
+  EXPECT_EQ(render_report(in).find("Resident memory along the run"), std::string::npos);
+  in.runs.front().memory_mib = {{0.0, 150.0}, {1.0, 180.0}, {2.0, 181.0}};
+  const std::string h = render_report(in);
+  EXPECT_NE(h.find("Resident memory along the run"), std::string::npos);
+  EXPECT_EQ(count(h, "<svg class=\"plot\""), 4u);
+  EXPECT_FALSE(has_non_finite(without_data(h)));
+}
+
 TEST(RunReport, ApeRmseIsTheEvaluatorsFigure) {
   const ReportInput in = sample_input();
   const std::string h = render_report(in);
