@@ -26,10 +26,8 @@ struct SimObjectRunOptions {
   // always masked.
   bool detect_still_movers = false;
   // A ground robot's (trajectory kind ugv) body radius: its disc at each keyframe is free in the
-  // grid (footprint clearing). 0: none. Off by default: ugv-loop's path runs through the potted
-  // plant at (-9.5, -6) (the body passes (-9.69, -6.20)), so its footprint frees the plant's
-  // cells (grid IoU 0.985 -> 0.951 with 0.25 m); a world a robot drives through is no test of it.
-  double robot_radius = 0.0;                          // metres
+  // grid (footprint clearing), as on the agent. 0: none.
+  double robot_radius = 0.25;                         // metres
   std::function<void(sim::Scenario&)> edit_scenario;  // applied after loading, before the run
   // Called after each keyframe's update, with the keyframe's true time.
   std::function<void(const sim::Simulator&, double t, const semantic::ObjectDatabase&)> on_keyframe;
