@@ -127,13 +127,14 @@ TEST_F(DemoReport, ReportParsesAndHoldsPlotsAndTables) {
   EXPECT_EQ(h.rfind("<!DOCTYPE html>", 0), 0u);
   EXPECT_EQ(check_well_formed(h), "");
   const std::string text = without_data(h);
-  // Top view, height and APE along time.
+  // Top view, height, APE along time and resident memory along the run.
   std::size_t plots = 0;
   for (auto at = text.find("<svg class=\"plot\""); at != std::string::npos;
        at = text.find("<svg class=\"plot\"", at + 1)) {
     ++plots;
   }
-  EXPECT_EQ(plots, 3u);
+  EXPECT_EQ(plots, 4u);
+  EXPECT_NE(text.find("Resident memory along the run"), std::string::npos);
   EXPECT_NE(text.find("<table id=\"summary\""), std::string::npos);
   EXPECT_NE(text.find("<table id=\"removal\""), std::string::npos);
   EXPECT_NE(text.find("<table class=\"timing\""), std::string::npos);
