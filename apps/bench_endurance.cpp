@@ -4,7 +4,6 @@
 // frame with hybrid rejection. Resident memory is sampled along the run, and frame_latency is
 // what a live user waits from a frame's arrival to its pose. The simulator renders on the
 // feeding thread, so on a 2-core machine it takes CPU a real camera would not.
-#include <algorithm>
 #include <cstdio>
 
 #include "apps/bench_areas.hpp"
@@ -41,8 +40,7 @@ nlohmann::json bench_endurance(const AreaOptions& o) {
     const auto it = s.counters.find(name);
     return it == s.counters.end() ? 0 : it->second;
   };
-  double peak = 0.0;
-  for (const pipeline::MemorySample& m : s.memory) peak = std::max(peak, m.rss_mib);
+  const double peak = pipeline::peak_rss_mib(s.memory);
   const double first = s.memory.empty() ? 0.0 : s.memory.front().rss_mib;
   const double last = s.memory.empty() ? 0.0 : s.memory.back().rss_mib;
   const double span_min = s.memory.empty() ? 0.0 : s.memory.back().stream_s / 60.0;

@@ -174,10 +174,8 @@ void print_summary(const char* name, const RunSummary& s) {
                 it->second.p50_ms, it->second.p99_ms, it->second.max_ms);
   }
   if (!s.memory.empty()) {
-    double peak = 0.0;
-    for (const auto& m : s.memory) peak = std::max(peak, m.rss_mib);
     std::printf("  resident memory %.0f MiB at the end (peak %.0f MiB)\n", s.memory.back().rss_mib,
-                peak);
+                kestrel::pipeline::peak_rss_mib(s.memory));
   }
 }
 

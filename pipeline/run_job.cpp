@@ -92,6 +92,12 @@ std::vector<std::size_t> strip_indices(std::size_t total, std::size_t n) {
 
 }  // namespace
 
+double peak_rss_mib(const std::vector<MemorySample>& samples) {
+  double peak = 0.0;
+  for (const MemorySample& m : samples) peak = std::max(peak, m.rss_mib);
+  return peak;
+}
+
 bool mode_uses_imu(const std::string& mode, const Calibration& calib) {
   if (mode == "auto") return calib.has_imu;
   const bool stereo = mode.rfind("stereo", 0) == 0;
@@ -268,10 +274,8 @@ std::string summary_json(const RunSummary& s) {
   j["detector_fps"] = s.detector_ms_median > 0 ? 1000.0 / s.detector_ms_median : 0.0;
   j["wall_seconds"] = s.wall_seconds;
   if (!s.memory.empty()) {
-    double peak = 0.0;
-    for (const MemorySample& m : s.memory) peak = std::max(peak, m.rss_mib);
     j["rss_mib_end"] = s.memory.back().rss_mib;
-    j["rss_mib_peak"] = peak;
+    j["rss_mib_peak"] = peak_rss_mib(s.memory);
     nlohmann::json samples = nlohmann::json::array();
     for (const MemorySample& m : s.memory) samples.push_back({m.stream_s, m.rss_mib});
     j["rss_mib_samples"] = samples;  // [stream seconds, MiB]

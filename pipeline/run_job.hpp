@@ -78,6 +78,9 @@ struct RunSummary {
   std::vector<MemorySample> memory;  // with memory_sample_s > 0; the last is after finish()
 };
 
+// The largest resident memory among the samples (0 for none).
+double peak_rss_mib(const std::vector<MemorySample>& samples);
+
 // Whether the run uses the IMU, for a mode and what the calibration offers; throws
 // kestrel::Error naming the mode when the dataset cannot give it.
 bool mode_uses_imu(const std::string& mode, const Calibration& calib);
