@@ -57,6 +57,45 @@ double homography_residual(const cv::Matx33d& H, const cv::Point2f& prev, const 
   return std::hypot(p[0] / p[2] - cur.x, p[1] / p[2] - cur.y);
 }
 
+// Levenberg-Marquardt on the reprojection error of the points within first_gate_px of the
+// current motion, then again on those within kPnpInlierPx of the result. Returns how many points
+// the final motion explains to kPnpInlierPx (0 when too few to refine).
+int refine_motion(const std::vector<cv::Point3f>& obj, const std::vector<cv::Point2f>& img,
+                  const cv::Matx33d& K, double first_gate_px, cv::Mat& rvec, cv::Mat& tvec) {
+  const auto explained = [&](double gate, std::vector<cv::Point3f>* o,
+                             std::vector<cv::Point2f>* m) {
+    std::vector<cv::Point2f> proj;
+    cv::projectPoints(obj, rvec, tvec, cv::Mat(K), cv::noArray(), proj);
+    int count = 0;
+    for (std::size_t k = 0; k < obj.size(); ++k) {
+      if (std::hypot(proj[k].x - img[k].x, proj[k].y - img[k].y) > gate) continue;
+      ++count;
+      if (o) o->push_back(obj[k]);
+      if (m) m->push_back(img[k]);
+    }
+    return count;
+  };
+  for (int round = 0; round < 2; ++round) {
+    std::vector<cv::Point3f> obj_in;
+    std::vector<cv::Point2f> img_in;
+    explained(round == 0 ? first_gate_px : kPnpInlierPx, &obj_in, &img_in);
+    if (obj_in.size() < 10) return 0;
+    cv::solvePnPRefineLM(obj_in, img_in, cv::Mat(K), cv::noArray(), rvec, tvec);
+  }
+  return explained(kPnpInlierPx, nullptr, nullptr);
+}
+
+// Whether two camera motions (Rodrigues vector and translation) agree within the gates.
+bool motion_agrees(const cv::Mat& r_a, const cv::Mat& t_a, const cv::Mat& r_b, const cv::Mat& t_b,
+                   double gate_rad, double gate_m) {
+  cv::Matx33d Ra, Rb;
+  cv::Rodrigues(r_a, Ra);
+  cv::Rodrigues(r_b, Rb);
+  cv::Vec3d dr;
+  cv::Rodrigues(cv::Mat(Ra * Rb.t()), dr);
+  return cv::norm(dr) <= gate_rad && cv::norm(t_a - t_b) <= gate_m;
+}
+
 int pyramid_levels(const DynamicFilterOptions& opt) {
   return std::max({opt.lk_levels, opt.lk_backward_levels, 0});
 }
@@ -373,30 +412,52 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
     if (obj.size() >= 15) {
       cv::Mat rvec, tvec;
       std::vector<int> inliers;
-      if (cv::solvePnPRansac(obj, img, cv::Mat(Kcv), cv::noArray(), rvec, tvec, false, 100,
-                             kPnpInlierPx, 0.99, inliers, cv::SOLVEPNP_EPNP) &&
-          inliers.size() >= 10) {
-        // RANSAC's estimate comes from EPnP on its consensus: refine it by Levenberg-Marquardt
-        // on the reprojection error of the points it explains, twice, so that its small
-        // rotation and translation errors do not grow into a tail of static residuals.
-        for (int round = 0; round < 2; ++round) {
-          std::vector<cv::Point2f> proj;
-          cv::projectPoints(obj, rvec, tvec, cv::Mat(Kcv), cv::noArray(), proj);
-          std::vector<cv::Point3f> obj_in;
-          std::vector<cv::Point2f> img_in;
-          for (std::size_t k = 0; k < obj.size(); ++k) {
-            if (std::hypot(proj[k].x - img[k].x, proj[k].y - img[k].y) <= kPnpInlierPx) {
-              obj_in.push_back(obj[k]);
-              img_in.push_back(img[k]);
+      bool solved = cv::solvePnPRansac(obj, img, cv::Mat(Kcv), cv::noArray(), rvec, tvec, false,
+                                       100, kPnpInlierPx, 0.99, inliers, cv::SOLVEPNP_EPNP) &&
+                    inliers.size() >= 10;
+      // RANSAC's estimate comes from EPnP on its consensus: refine it by Levenberg-Marquardt on
+      // the reprojection error of the points it explains, twice, so that its small rotation and
+      // translation errors do not grow into a tail of static residuals.
+      if (solved) refine_motion(obj, img, Kcv, kPnpInlierPx, rvec, tvec);
+      if (in.R_cur_prev && in.t_cur_prev) {
+        // The prediction, as PnP's unknown: the current camera into the previous one.
+        const Mat3 R_pc = in.R_cur_prev->transpose();
+        const Vec3 t_pc = -(R_pc * *in.t_cur_prev);
+        cv::Mat r_prior, t_prior = (cv::Mat_<double>(3, 1) << t_pc.x(), t_pc.y(), t_pc.z());
+        cv::Rodrigues(cv::Mat(to_matx(R_pc)), r_prior);
+        const double gate_r = opt.prior_gate_sigmas * in.prior_rotation_sigma_rad;
+        const double gate_t = std::max(opt.prior_min_translation_m,
+                                       opt.prior_gate_sigmas * in.prior_translation_sigma_m);
+        if (!solved || !motion_agrees(rvec, tvec, r_prior, t_prior, gate_r, gate_t)) {
+          // RANSAC found another consensus than the predicted motion (or none): the points the
+          // prediction explains are the world, if there are enough of them.
+          cv::Mat rp = r_prior.clone(), tp = t_prior.clone();
+          if (refine_motion(obj, img, Kcv, opt.prior_inlier_px, rp, tp) >= 10) {
+            if (!motion_agrees(rp, tp, r_prior, t_prior, gate_r, gate_t)) {
+              rp = r_prior;  // the refinement slid off to the other consensus
+              tp = t_prior;
             }
+            rvec = rp;
+            tvec = tp;
+            solved = true;
+            out.motion_from_prior = true;
           }
-          if (obj_in.size() < 10) break;
-          cv::solvePnPRefineLM(obj_in, img_in, cv::Mat(Kcv), cv::noArray(), rvec, tvec);
         }
+      }
+      if (solved) {
         cv::Matx33d R;
         cv::Rodrigues(rvec, R);
         const cv::Vec3d t(tvec.at<double>(0), tvec.at<double>(1), tvec.at<double>(2));
         have_3d = true;
+        if (out.motion_from_prior && cv::norm(t) > 1e-3) {
+          // Features without depth get the epipolar test of the same motion, not RANSAC's.
+          const cv::Matx33d R_cp = R.t();
+          const cv::Vec3d t_cp = -(R_cp * t);
+          const cv::Matx33d tx(0, -t_cp[2], t_cp[1], t_cp[2], 0, -t_cp[0], -t_cp[1], t_cp[0], 0);
+          const cv::Matx33d Kinv = Kcv.inv();
+          F = Kinv.t() * (tx * R_cp) * Kinv;
+          out.geometry_valid = true;
+        }
         for (std::size_t i = 0; i < n; ++i) {
           if (!valid[i] || in.depth_m[i] <= 0) continue;
           const Vec3 X = in.depth_m[i] * (Kinv * Vec3(in.points[i].x(), in.points[i].y(), 1.0));

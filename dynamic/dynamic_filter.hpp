@@ -104,6 +104,12 @@ struct DynamicFilterOptions {
   // reports the table at (-1.5, 6.8) behind its chair (recall 0.83).
   bool outline_by_depth = false;
   bool outline_no_depth_dynamic = false;  // bench: +3 pts removed, -1.4 kept on market
+  // Ego-motion prior (DynamicFilterInput::t_cur_prev): when the RANSAC motion lies further than
+  // this many sigmas from the prediction, the prediction, refined on the points it explains to
+  // prior_inlier_px, is the camera's motion instead.
+  double prior_gate_sigmas = 4.0;
+  double prior_inlier_px = 4.0;
+  double prior_min_translation_m = 0.01;  // floor of the translation gate
 };
 
 // The image pyramid LK flow runs on (levels and their gradients), built once per image: a caller
@@ -130,6 +136,14 @@ struct DynamicFilterInput {
   std::vector<BoxRegion> boxes;  // dynamic-class detections matched to this frame
   Mat3 K = Mat3::Identity();
   std::optional<Mat3> R_cur_prev;  // IMU-predicted camera rotation, prev camera into current
+  // The IMU-predicted camera translation over the same interval (X_cur = R_cur_prev X_prev +
+  // t_cur_prev, metres; needs R_cur_prev) and how far either may be off (one sigma). With it
+  // and depth, the camera's motion is checked against the prediction: a crowd walking with the
+  // camera, or filling most of the view, is a consensus of its own that RANSAC takes for the
+  // background, and the prediction says which consensus is the world.
+  std::optional<Vec3> t_cur_prev;
+  double prior_translation_sigma_m = 0.01;
+  double prior_rotation_sigma_rad = 0.005;
   // The previous frame's depth image (16-bit, metres = value / depth_scale), optional. With
   // it, a point whose depth changed otherwise than the ego-motion predicts is dynamic: a
   // walker coming straight at the camera, or walking just ahead of it, barely moves in the
@@ -158,6 +172,7 @@ struct DynamicFilterResult {
   bool geometry_valid = false;
   bool degenerate_motion = false;     // little translation: homography test where depth is missing
   bool motion_3d = false;             // ego-motion from depth + PnP was used
+  bool motion_from_prior = false;     // ... and it is the IMU prediction's, not RANSAC's
   double outside_threshold_px = 0.0;  // the adaptive threshold used this frame
   double depth_threshold = 0.0;       // the adaptive depth-change threshold (1/m); 0 unused
   int tracked = 0;                    // features with valid flow

@@ -196,6 +196,58 @@ TEST(DynamicFilter, DepthGivesEgoMotionWithoutParallaxAmbiguity) {
   EXPECT_GE(h.kept, 95.0);
 }
 
+TEST(DynamicFilter, MotionPriorPicksTheWorldOverACrowdMovingWithTheCamera) {
+  // A crowd filling most of the view walks with the camera: between two frames it does not move
+  // in the image, the wall behind it does. RANSAC takes the larger consensus, "camera still",
+  // and throws the wall away; the IMU's predicted translation says which consensus is the world.
+  const cv::Mat wall = photo("000004.jpg"), crowd = photo("person.jpg");
+  const cv::Vec3d step(0.05, 0.0, 0.0);
+  std::vector<Plane> planes = {{wall, 5.0, -6, 6, -4, 4}, {crowd, 3.0, -1.5, 1.5, -1.2, 1.0}};
+  Scene s;
+  s.prev = render(planes, cv::Vec3d(0, 0, 0));
+  planes[1].x0 += step[0];
+  planes[1].x1 += step[0];
+  s.cur = render(planes, step, &s.ids);
+  s.ids.setTo(2, s.ids == 1);  // the crowd is the mover score() counts
+  std::vector<cv::Point2f> corners;
+  cv::goodFeaturesToTrack(s.cur, corners, 800, 0.005, 7);
+  for (const auto& c : corners) s.points.emplace_back(c.x, c.y);
+  const Image prev = to_image(s.prev), cur = to_image(s.cur);
+  DynamicFilterInput in = input_for(s, prev, cur);
+  for (const Vec2& p : s.points) {
+    in.depth_m.push_back(
+        s.ids.at<uint8_t>(static_cast<int>(p.y()), static_cast<int>(p.x())) == 2 ? 3.0 : 5.0);
+  }
+  in.R_cur_prev = Mat3::Identity();
+  DynamicFilterOptions geo;
+  geo.mode = FilterMode::kGeometryOnly;
+  const DynamicFilterResult blind = classify_features(in, geo);
+  EXPECT_FALSE(blind.motion_from_prior);
+  // RANSAC alone takes the crowd for the world: it keeps the crowd (and judges the wall by it).
+  EXPECT_LT(score(s, blind).removed, 50.0);
+
+  in.t_cur_prev = Vec3(-step[0], -step[1], -step[2]);
+  in.prior_translation_sigma_m = 0.005;
+  in.prior_rotation_sigma_rad = 0.002;
+  const DynamicFilterResult r = classify_features(in, geo);
+  EXPECT_TRUE(r.motion_from_prior);
+  const Score g = score(s, r);
+  EXPECT_GE(g.removed, 90.0);
+  EXPECT_GE(g.kept, 90.0);
+
+  // A prediction that agrees with RANSAC changes nothing.
+  const Scene plain = make_scene({0.02, 0, 0}, {0, -0.05, 0});
+  const Image p2 = to_image(plain.prev), c2 = to_image(plain.cur);
+  DynamicFilterInput in2 = input_for(plain, p2, c2);
+  in2.depth_m = depths_of(plain, 0.0);
+  in2.R_cur_prev = Mat3::Identity();
+  const DynamicFilterResult a = classify_features(in2, geo);
+  in2.t_cur_prev = Vec3(-0.02, 0, 0);
+  const DynamicFilterResult b = classify_features(in2, geo);
+  EXPECT_FALSE(b.motion_from_prior);
+  EXPECT_EQ(a.labels, b.labels);
+}
+
 TEST(DynamicFilter, StillCameraUsesFlowResidual) {
   // A hovering camera: epipolar geometry is degenerate, the homography test takes over.
   const Scene s = make_scene({0, 0, 0}, {0.03, 0.02, 0});
