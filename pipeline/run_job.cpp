@@ -46,7 +46,7 @@ class RunObserver : public Observer {
     progress_.update(++done_, tracking::to_string(r.state));
     std::lock_guard lock(mutex_);
     rows_.push_back({r.t, r.state, r.features, r.dynamic_features, r.inliers, r.detections,
-                     r.keyframe, r.latency_ms, r.source, r.imu_chi2});
+                     r.keyframe, r.latency_ms, r.source, r.imu_chi2, r.removal});
     for (KeptFrame& k : strip_) {
       if (!k.frame.color.empty() && k.frame.t == r.t) k.report = r;
     }
@@ -55,12 +55,17 @@ class RunObserver : public Observer {
   void write_frames_csv(const std::string& path) {
     std::lock_guard lock(mutex_);
     std::ofstream out(path);
-    out << "#t [s],state,features,dynamic,inliers,detections,keyframe,latency [ms],pose,imu chi2\n";
-    char line[200];
+    // With ground-truth mover masks, the last four columns say how the filter did on this frame
+    // (features truly on movers and how many it removed, truly static and how many it kept).
+    out << "#t [s],state,features,dynamic,inliers,detections,keyframe,latency [ms],pose,imu chi2,"
+           "true dynamic,removed,true static,kept\n";
+    char line[240];
     for (const Row& r : rows_) {
-      std::snprintf(line, sizeof(line), "%.9f,%s,%d,%d,%d,%d,%d,%.2f,%s,%.3g\n", to_seconds(r.t),
-                    tracking::to_string(r.state), r.features, r.dynamic, r.inliers, r.detections,
-                    r.keyframe ? 1 : 0, r.latency_ms, to_string(r.source), r.imu_chi2);
+      std::snprintf(line, sizeof(line), "%.9f,%s,%d,%d,%d,%d,%d,%.2f,%s,%.3g,%zu,%zu,%zu,%zu\n",
+                    to_seconds(r.t), tracking::to_string(r.state), r.features, r.dynamic, r.inliers,
+                    r.detections, r.keyframe ? 1 : 0, r.latency_ms, to_string(r.source), r.imu_chi2,
+                    r.removal.dynamic_total, r.removal.dynamic_removed, r.removal.static_total,
+                    r.removal.static_kept);
       out << line;
     }
     if (!out) throw Error::at(path, 0, "", "write error");
@@ -75,6 +80,7 @@ class RunObserver : public Observer {
     double latency_ms;
     PoseSource source;
     double imu_chi2;
+    dynamic::RemovalCounts removal;
   };
   ProgressBar& progress_;
   std::vector<KeptFrame>& strip_;
