@@ -14,6 +14,7 @@
 // R_mᵀ R_{m+1}), each one a measurement with its own covariance for a Kalman update. The
 // velocity at the newest fix then follows from pre-integration, and so does the pose at any
 // later stamp the IMU covers.
+#include <cmath>
 #include <deque>
 #include <optional>
 #include <span>
@@ -84,6 +85,8 @@ class InertialPredictor {
   void set_gravity(const Vec3& g) { options_.gravity = g; }
 
   const ImuBias& bias() const { return bias_; }
+  // One sigma of the gyro bias estimate (rad/s, the largest axis).
+  double gyro_bias_sigma() const { return std::sqrt(gyro_bias_cov_.diagonal().maxCoeff()); }
   std::size_t fixes() const { return fixes_.size(); }
   // Velocity at the newest fix, once the window is long enough.
   const std::optional<Vec3>& velocity() const { return v_last_; }

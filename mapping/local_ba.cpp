@@ -39,6 +39,24 @@ bool disparity_jacobians(double bf, const SE3& T_c_w, const Vec3& p_w, double me
   return true;
 }
 
+void rotation_link_jacobians(const Mat3& R_to_from, const SE3& T_c_w_from, const SE3& T_c_w_to,
+                             Vec3* r, Mat36* J_from, Mat36* J_to) {
+  // E = D^T R_to R_from^T. A left perturbation Exp(phi) of R_to enters as Exp(D^T phi) E, one of
+  // R_from as E Exp(-phi).
+  const Mat3 D = R_to_from;
+  const SO3 E(Mat3(D.transpose() * T_c_w_to.rotation() * T_c_w_from.rotation().transpose()));
+  const Vec3 e = E.log();
+  *r = e;
+  if (J_to) {
+    J_to->setZero();
+    J_to->rightCols<3>() = SO3::left_jacobian_inverse(e) * D.transpose();
+  }
+  if (J_from) {
+    J_from->setZero();
+    J_from->rightCols<3>() = -SO3::right_jacobian_inverse(e);
+  }
+}
+
 namespace {
 
 // Poses live in Ceres as xi = log(T_c_w). Plus applies a left perturbation; the cost returns
@@ -139,6 +157,30 @@ class DisparityCost final : public ceres::SizedCostFunction<1, 6, 3> {
   double bf_, measured_, sqrt_info_;
 };
 
+// A gyro link between two keyframes' poses, whitened by its sigma.
+class RotationLinkCost final : public ceres::SizedCostFunction<3, 6, 6> {
+ public:
+  RotationLinkCost(const Mat3& R_to_from, double sigma_rad) : D_(R_to_from), w_(1.0 / sigma_rad) {}
+  bool Evaluate(double const* const* params, double* residuals, double** jacobians) const override {
+    const SE3 from = SE3::exp(Eigen::Map<const Vec6>(params[0]));
+    const SE3 to = SE3::exp(Eigen::Map<const Vec6>(params[1]));
+    Vec3 r;
+    Mat36 Jf, Jt;
+    rotation_link_jacobians(D_, from, to, &r, &Jf, &Jt);
+    Eigen::Map<Vec3>{residuals} = w_ * r;
+    if (jacobians) {
+      using RowMajor36 = Eigen::Matrix<double, 3, 6, Eigen::RowMajor>;
+      if (jacobians[0]) Eigen::Map<RowMajor36>{jacobians[0]} = w_ * Jf;
+      if (jacobians[1]) Eigen::Map<RowMajor36>{jacobians[1]} = w_ * Jt;
+    }
+    return residuals[0] == residuals[0];
+  }
+
+ private:
+  Mat3 D_;
+  double w_;
+};
+
 }  // namespace
 
 std::optional<LocalBaProblem> gather_local_ba(const Map& map, KeyframeId current,
@@ -179,6 +221,17 @@ std::optional<LocalBaProblem> gather_local_ba(const Map& map, KeyframeId current
     local.erase(local.begin());
   }
   if (local.empty() || pb.observations.empty()) return std::nullopt;
+  if (options.gyro_links) {
+    // A link whose older end is outside the window holds that end still: it anchors the
+    // window's rotation to the gyro.
+    for (KeyframeId k : local) {
+      const Keyframe* kf = map.keyframe(k);
+      if (!kf->gyro || !(kf->gyro->sigma_rad > 0.0) || !map.keyframe(kf->gyro->from)) continue;
+      const KeyframeId from = kf->gyro->from;
+      if (!local.count(from)) fixed.insert(from);
+      pb.rotation_links.push_back({from, k, kf->gyro->R_c_from, kf->gyro->sigma_rad});
+    }
+  }
   for (KeyframeId k : local) pb.T_c_w[k] = map.keyframe(k)->T_c_w();
   for (KeyframeId k : fixed) pb.T_c_w[k] = map.keyframe(k)->T_c_w();
   pb.fixed = std::move(fixed);
@@ -229,6 +282,10 @@ LocalBaSolution solve_local_ba(const LocalBaProblem& pb, const PinholeCamera& ca
             new ceres::HuberLoss(std::sqrt(options.chi2_outlier_depth)), poses[o.kf].data(),
             pts[o.point].data());
       }
+    }
+    for (const auto& l : pb.rotation_links) {
+      problem.AddResidualBlock(new RotationLinkCost(l.R_to_from, l.sigma_rad),
+                               new ceres::HuberLoss(3.0), poses[l.from].data(), poses[l.to].data());
     }
     for (auto& [k, xi] : poses) {
       if (!problem.HasParameterBlock(xi.data())) continue;

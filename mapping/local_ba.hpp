@@ -17,6 +17,7 @@
 namespace kestrel::mapping {
 
 using Mat26 = Eigen::Matrix<double, 2, 6>;
+using Mat36 = Eigen::Matrix<double, 3, 6>;
 
 struct LocalBaOptions {
   int window = 10;              // covisible keyframes optimized with the current one
@@ -26,6 +27,9 @@ struct LocalBaOptions {
   // Depth enters as the disparity of a virtual stereo rig, bf / z in pixels (ORB-SLAM's RGB-D
   // model; its TUM settings use bf = 40). It pins the scale that reprojection alone leaves free.
   double virtual_bf = 40.0;
+  // Keyframes' gyro links (Keyframe::gyro) as rotation factors between them: off, the map is
+  // vision's alone.
+  bool gyro_links = true;
 };
 
 struct LocalBaResult {
@@ -48,6 +52,11 @@ bool reprojection_jacobians(const PinholeCamera& camera, const SE3& T_c_w, const
 bool disparity_jacobians(double bf, const SE3& T_c_w, const Vec3& p_w, double measured, double* r,
                          Eigen::Matrix<double, 1, 6>* J_pose, Eigen::Matrix<double, 1, 3>* J_point);
 
+// Residual Log(R_to_from^T R_c_w(to) R_c_w(from)^T) of a gyro link, and its Jacobians with
+// respect to the left perturbations of the two poses (same conventions as above).
+void rotation_link_jacobians(const Mat3& R_to_from, const SE3& T_c_w_from, const SE3& T_c_w_to,
+                             Vec3* r, Mat36* J_from, Mat36* J_to);
+
 // What one local BA needs, copied out of the map.
 struct LocalBaProblem {
   KeyframeId current = -1;
@@ -63,6 +72,12 @@ struct LocalBaProblem {
     double depth;         // metres; 0 without
   };
   std::vector<Observation> observations;
+  struct RotationLink {
+    KeyframeId from, to;
+    Mat3 R_to_from;  // the gyro's rotation of camera `from` into camera `to`
+    double sigma_rad;
+  };
+  std::vector<RotationLink> rotation_links;  // at least one end optimized
 };
 
 struct LocalBaSolution {

@@ -251,7 +251,20 @@ void Map::erase_keyframe(KeyframeId kid) {
     neighbours.push_back(other);
   }
   const std::vector<PointId> seen = it->second.point_of_feature;
+  const std::optional<GyroLink> through = it->second.gyro;
   keyframes_.erase(it);
+  for (auto& [id, kf] : keyframes_) {
+    (void)id;
+    if (!kf.gyro || kf.gyro->from != kid) continue;
+    if (!through) {
+      kf.gyro.reset();
+      continue;
+    }
+    kf.gyro->R_c_from = kf.gyro->R_c_from * through->R_c_from;
+    kf.gyro->from = through->from;
+    kf.gyro->dt_s += through->dt_s;
+    kf.gyro->sigma_rad = std::hypot(kf.gyro->sigma_rad, through->sigma_rad);
+  }
   for (PointId pid : seen) {
     MapPoint* p = point(pid);
     if (!p) continue;

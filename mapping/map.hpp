@@ -3,6 +3,7 @@
 // threads). Whoever owns a Map serializes access to it; pipeline/ decides who that is.
 #include <cstdint>
 #include <map>
+#include <optional>
 #include <unordered_map>
 #include <vector>
 
@@ -37,6 +38,18 @@ struct MapPoint {
   int predict_level(double distance, double scale_factor, int levels) const;
 };
 
+// The gyro's word on how a keyframe's camera turned since an earlier keyframe: R_c_from maps
+// directions of keyframe `from`'s camera into this one's (bias-corrected integration), good to
+// sigma_rad per axis. Over the seconds between keyframes the gyro is far better than vision at
+// rotation; local BA holds the keyframes to it, so a map cannot tilt away from the IMU.
+// Session-only: not written to map.bin (a loaded map's keyframes have none).
+struct GyroLink {
+  KeyframeId from = -1;
+  Mat3 R_c_from = Mat3::Identity();
+  double dt_s = 0.0;
+  double sigma_rad = 0.0;
+};
+
 struct Keyframe {
   KeyframeId id = -1;
   Timestamp t = 0;
@@ -44,6 +57,7 @@ struct Keyframe {
   FrameFeatures features;
   std::vector<PointId> point_of_feature;  // kNoPoint where a feature has no map point
   std::map<KeyframeId, int> connections;  // covisibility: shared map points per keyframe
+  std::optional<GyroLink> gyro;           // to the keyframe before it, when there is an IMU
 
   SE3 T_c_w() const { return T_w_c.inverse(); }
 };
@@ -78,7 +92,8 @@ class Map {
   // (one level of slack). 0 when kf has no such point.
   double redundancy(KeyframeId kf, double max_depth, int observers = 3) const;
   // Removes a keyframe: its observations (a point it alone saw goes with it) and its
-  // covisibility edges; the neighbours' weights are recomputed.
+  // covisibility edges; the neighbours' weights are recomputed. A gyro link to it is carried
+  // through to the keyframe it linked to (rotations composed, variances added).
   void erase_keyframe(KeyframeId kf);
   // Up to n keyframes sharing the most points with kf, best first.
   std::vector<KeyframeId> covisible(KeyframeId kf, int n) const;

@@ -44,17 +44,24 @@ void ImuBuffer::drop_before(Timestamp t) {
   while (samples_.size() > 1 && samples_[1].t <= t) samples_.pop_front();
 }
 
-std::optional<Mat3> gyro_rotation(const ImuBuffer& imu, Timestamp t0, Timestamp t1,
-                                  const SE3& T_body_camera) {
+std::optional<SO3> gyro_delta(const ImuBuffer& imu, Timestamp t0, Timestamp t1,
+                              const Vec3& gyro_bias) {
   const std::vector<ImuSample> s = imu.between(t0, t1);
   if (s.size() < 2) return std::nullopt;
-  SO3 R_prev_cur_body;
+  SO3 R;
   for (std::size_t i = 1; i < s.size(); ++i) {
     const double dt = static_cast<double>(s[i].t - s[i - 1].t) * 1e-9;
-    R_prev_cur_body = R_prev_cur_body * SO3::exp(0.5 * (s[i].gyro + s[i - 1].gyro) * dt);
+    R = R * SO3::exp((0.5 * (s[i].gyro + s[i - 1].gyro) - gyro_bias) * dt);
   }
+  return R;
+}
+
+std::optional<Mat3> gyro_rotation(const ImuBuffer& imu, Timestamp t0, Timestamp t1,
+                                  const SE3& T_body_camera) {
+  const std::optional<SO3> R_prev_cur_body = gyro_delta(imu, t0, t1);
+  if (!R_prev_cur_body) return std::nullopt;
   const Mat3 R_bc = T_body_camera.rotation();
-  const Mat3 R_prev_cur_cam = R_bc.transpose() * R_prev_cur_body.matrix() * R_bc;
+  const Mat3 R_prev_cur_cam = R_bc.transpose() * R_prev_cur_body->matrix() * R_bc;
   return R_prev_cur_cam.transpose();
 }
 

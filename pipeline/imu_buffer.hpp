@@ -35,6 +35,11 @@ class ImuBuffer {
   std::size_t rejected_ = 0;
 };
 
+// The body's rotation from t0 to t1 (R_b0_b1: directions at t1 into the body at t0) from the
+// gyro less `gyro_bias`, midpoint rule. Nothing when the buffer does not span both stamps.
+std::optional<SO3> gyro_delta(const ImuBuffer& imu, Timestamp t0, Timestamp t1,
+                              const Vec3& gyro_bias = Vec3::Zero());
+
 // Camera rotation between two frame stamps from the gyro (body frame), expressed in the camera
 // frame: R_cur_prev maps directions of the previous camera into the current one (what the
 // dynamic filter's ego-motion model takes). Nothing when the buffer does not span both.

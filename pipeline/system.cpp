@@ -155,9 +155,15 @@ struct System::Impl {
   Image prev_depth;  // for the filter's depth-change test (a mover walking at the camera)
   double prev_depth_scale = 5000.0;
   Timestamp prev_t = 0;
-  bool inertial = false;         // IMU used at all (wait, gyro for the filter, prediction)
-  bool imu_missing = false;      // under imu_mutex: the calibration has an IMU, the stream none
-  Timestamp first_frame_t = -1;  // under imu_mutex
+  // Gyro rotation of the body since keyframe kf_gyro_from (-1: none), integrated up to gyro_t.
+  mapping::KeyframeId kf_gyro_from = -1;
+  SO3 kf_gyro_R;
+  double kf_gyro_dt = 0.0;
+  Timestamp gyro_t = 0;
+  std::optional<SE3> prev_T_w_c;  // the previous frame's camera pose: tracked, or the IMU's
+  bool inertial = false;          // IMU used at all (wait, gyro for the filter, prediction)
+  bool imu_missing = false;       // under imu_mutex: the calibration has an IMU, the stream none
+  Timestamp first_frame_t = -1;   // under imu_mutex
   // World gravity for the predictor: known when the world was aligned to gravity (ground truth
   // or the accelerometer before the first frame); else estimated from the first tracked
   // frames, and no prediction until then.
@@ -183,6 +189,10 @@ struct System::Impl {
                 [&] {
                   tracking::TrackerOptions t = options.tracker;
                   if (options.async_local_ba) t.inline_mapping = false;
+                  if (!options.inertial_prior) {
+                    t.prior_in_optimization = false;
+                    t.prior_gate_chi2 = options.inertial_gate_chi2;
+                  }
                   return t;
                 }()),
         frames(options.frame_queue, FullPolicy::kBlock),
@@ -274,6 +284,41 @@ struct System::Impl {
     prior.rotation_sigma = options.inertial_prior_rotation_sigma * (1.0 + h / 0.1);
     prior.translation_sigma = options.inertial_prior_translation_sigma + 0.05 * h + 0.5 * h * h;
     return prior;
+  }
+
+  // The gyro's rotation since the newest keyframe, carried up to frame stamp t and handed to
+  // the tracker: should this frame become a keyframe, local BA holds the two to it.
+  void link_gyro(Timestamp t) {
+    if (kf_gyro_from >= 0 && gyro_t > 0 && t > gyro_t) {
+      std::optional<SO3> d;
+      {
+        std::lock_guard<std::mutex> lock(imu_mutex);
+        d = gyro_delta(imu, gyro_t, t, predictor.bias().gyro);
+      }
+      if (d) {
+        kf_gyro_R = kf_gyro_R * *d;
+        kf_gyro_dt += to_seconds(t - gyro_t);
+      } else {
+        kf_gyro_from = -1;  // a gap in the IMU: no link until the next keyframe
+      }
+    }
+    gyro_t = t;
+    if (kf_gyro_from < 0 || !options.gyro_links) {
+      tracker.set_gyro_link(std::nullopt);
+      return;
+    }
+    mapping::GyroLink link;
+    link.from = kf_gyro_from;
+    const Mat3 R_bc = calib.T_body_camera.rotation();
+    link.R_c_from = (R_bc.transpose() * kf_gyro_R.matrix() * R_bc).transpose();
+    link.dt_s = kf_gyro_dt;
+    const double h = kf_gyro_dt;
+    const double white = calib.imu.gyro_noise * calib.imu.gyro_noise * h;
+    const double bias = predictor.gyro_bias_sigma() * h;
+    const double rel = options.gyro_link_relative_sigma * kf_gyro_R.angle();
+    link.sigma_rad = std::sqrt(white + bias * bias + rel * rel +
+                               options.gyro_link_sigma_floor * options.gyro_link_sigma_floor);
+    tracker.set_gyro_link(link);
   }
 
   // Vision's disagreement with the IMU's prediction, in the prediction's own sigmas.
@@ -447,6 +492,10 @@ struct System::Impl {
       stats.record("imu_wait", ms_since(t0));
     }
 
+    if (!world_initialized) initialize_world(frame.t);
+    apply_local_ba_results(options.sequential);
+    const std::optional<tracking::MotionPrior> prior = inertial_prediction(frame.t);
+
     // Dynamic filter against the previous frame.
     t0 = Clock::now();
     const Image gray = to_gray(frame.color);
@@ -472,6 +521,13 @@ struct System::Impl {
       {
         std::lock_guard<std::mutex> lock(imu_mutex);
         if (inertial) in.R_cur_prev = gyro_rotation(imu, prev_t, frame.t, calib.T_body_camera);
+      }
+      if (in.R_cur_prev && prior && prev_T_w_c && options.dynamic_motion_prior) {
+        // The camera's translation since the previous frame, as the IMU predicts it: the filter
+        // checks its ego-motion against it (a crowd moving with the camera is a consensus too).
+        in.t_cur_prev = (prior->T_w_c.inverse() * *prev_T_w_c).translation();
+        in.prior_translation_sigma_m = prior->translation_sigma;
+        in.prior_rotation_sigma_rad = prior->rotation_sigma;
       }
       r = dynamic::classify_features(in, options.dynamic);
       for (std::size_t i = 0; i < keep.size(); ++i) {
@@ -504,9 +560,6 @@ struct System::Impl {
     report.feature_dynamic.resize(keep.size());
     for (std::size_t i = 0; i < keep.size(); ++i) report.feature_dynamic[i] = keep[i] ? 0 : 1;
 
-    if (!world_initialized) initialize_world(frame.t);
-    apply_local_ba_results(options.sequential);
-    const std::optional<tracking::MotionPrior> prior = inertial_prediction(frame.t);
     std::optional<SE3> predicted;
     if (prior) predicted = prior->T_w_c;
     std::optional<SO3> attitude;
@@ -517,10 +570,17 @@ struct System::Impl {
     }
     tracker.set_attitude_hint(attitude);
     t0 = Clock::now();
-    const tracking::TrackResult tr = prior && options.inertial_prior
-                                         ? tracker.track(std::move(features), *prior, &keep)
-                                         : tracker.track(std::move(features), predicted, &keep);
+    if (inertial) link_gyro(frame.t);
+    const tracking::TrackResult tr =
+        prior && (options.inertial_prior || options.inertial_gate_chi2 > 0.0)
+            ? tracker.track(std::move(features), *prior, &keep)
+            : tracker.track(std::move(features), predicted, &keep);
     stats.record("tracking", ms_since(t0));
+    if (tr.new_keyframe) {
+      kf_gyro_from = tr.keyframe_id;
+      kf_gyro_R = SO3();
+      kf_gyro_dt = 0.0;
+    }
     const mapping::KeyframeId local_ba_requested = request_local_ba();
     if (inertial) {
       const SE3 T_w_b = tr.T_w_c * calib.T_body_camera.inverse();
@@ -554,6 +614,14 @@ struct System::Impl {
       report.T_w_body = *predicted * calib.T_body_camera.inverse();
       report.inertial_only = true;
       report.source = PoseSource::kImu;
+    }
+    if (tr.state == tracking::TrackingState::kOk ||
+        tr.state == tracking::TrackingState::kRelocalized) {
+      prev_T_w_c = tr.T_w_c;
+    } else if (predicted) {
+      prev_T_w_c = predicted;
+    } else {
+      prev_T_w_c.reset();
     }
     report.latency_ms = ms_since(q.arrival);
     stats.record("frame_latency", report.latency_ms);

@@ -58,6 +58,23 @@ struct SystemOptions {
   // The prediction inherits the fixes' errors through the velocity fit, so vision and IMU
   // are not independent here; that needs a sliding-window visual-inertial estimate.
   bool inertial_prior = false;
+  // With inertial_prior off, the prediction still gates vision: a pose further from it than
+  // this chi-square (in the prediction's tight sigmas) is re-matched around the prediction,
+  // and dropped (the IMU carries the frame) if it still disagrees. Walkers filling the view
+  // pulled a 20-inlier pose 0.2 m and 2.4 degrees off in one frame (market at 17.7 s, chi2
+  // 2450). Honest frames reach a few hundred: at 400 uav-zigzag's turns lost 30 frames.
+  // market 60 s: APE 0.91 m without the gate, 0.18 m at 400, 0.15 m at 2000. 0: no gate.
+  double inertial_gate_chi2 = 2000.0;
+  // Keyframes carry the gyro's rotation since the keyframe before them and local BA holds
+  // them to it (mapping::GyroLink): without, a map tilts wherever vision's errors lead it
+  // (market, no movers: 6 degrees in 8 s). The link's sigma adds to the gyro's white noise and
+  // bias uncertainty a floor and a share of the angle turned (camera-IMU rotation error).
+  bool gyro_links = true;
+  double gyro_link_sigma_floor = 1e-4;      // radians
+  double gyro_link_relative_sigma = 0.005;  // of the angle turned
+  // The dynamic filter checks its ego-motion against the IMU's predicted camera motion
+  // (dynamic::DynamicFilterInput::t_cur_prev).
+  bool dynamic_motion_prior = true;
   double inertial_prior_rotation_sigma = 0.001;     // radians
   double inertial_prior_translation_sigma = 0.005;  // metres
   // Live (not sequential) runs wait at most this long for the IMU to pass a frame's stamp.

@@ -314,6 +314,7 @@ bool Tracker::start_local_map(FrameFeatures&& f, const SE3& T_w_c, TrackResult& 
   }
   if (with_depth < options_.min_init_points) return false;
   const KeyframeId kid = map_.add_keyframe(f.t, T_w_c, std::move(f));
+  if (gyro_link_ && map_.keyframe(gyro_link_->from)) map_.keyframe(kid)->gyro = gyro_link_;
   map_.create_points_from_depth(kid, std::numeric_limits<int>::max(), options_.features.max_depth);
   reference_kf_ = last_kf_ = kid;
   frames_since_keyframe_ = 0;
@@ -507,7 +508,8 @@ PoseOptimizerResult Tracker::optimize(const FrameFeatures& f, Matched& m, const 
     feature_of.push_back(i);
   }
   PoseOptimizerResult r =
-      optimize_pose(camera_, obs, T_c_w, options_.pose, prior_ ? &*prior_ : nullptr);
+      optimize_pose(camera_, obs, T_c_w, options_.pose,
+                    prior_ && options_.prior_in_optimization ? &*prior_ : nullptr);
   m.count = 0;
   for (std::size_t k = 0; k < obs.size(); ++k) {
     if (!r.inlier[k]) {
@@ -565,6 +567,7 @@ bool Tracker::need_keyframe(const FrameFeatures& f, const Matched& m, int inlier
 KeyframeId Tracker::insert_keyframe(FrameFeatures&& f, const Matched& m, const SE3& T_w_c) {
   const double close_depth = close_depth_for(f, options_.close_depth);
   const KeyframeId kid = map_.add_keyframe(f.t, T_w_c, std::move(f));
+  if (gyro_link_ && map_.keyframe(gyro_link_->from)) map_.keyframe(kid)->gyro = gyro_link_;
   for (std::size_t i = 0; i < m.point.size(); ++i) {
     if (m.point[i] != kNoPoint && map_.point(m.point[i])) {
       map_.add_observation(m.point[i], kid, static_cast<int>(i));

@@ -53,6 +53,8 @@ struct TrackerOptions {
   // residual; 16.8 is 99%) is vision disagreeing with the IMU, and the points that agree with
   // the IMU's pose are tried instead. 0: no gate.
   double prior_gate_chi2 = 16.8;
+  // The MotionPrior also weighs in the pose optimization; false: it only gates (above).
+  bool prior_in_optimization = true;
   // With a prediction (the IMU's, fresh), a relocalization further from it than this is
   // rejected: a look-alike place. 0: no check.
   double relocalize_max_prediction_m = 1.0;
@@ -135,6 +137,9 @@ class Tracker {
   const TrackerOptions& options() const { return options_; }
   const mapping::Map& map() const { return map_; }
   mapping::Map& map() { return map_; }
+  // The gyro's rotation from keyframe link->from to the next frame to be tracked: the keyframe
+  // that frame may become carries it (mapping::Keyframe::gyro). Nothing: no link.
+  void set_gyro_link(std::optional<mapping::GyroLink> link) { gyro_link_ = std::move(link); }
   TrackingState state() const { return state_; }
   const SE3& last_pose() const { return last_T_w_c_; }
   void reset();
@@ -183,7 +188,8 @@ class Tracker {
   std::optional<SE3> velocity_;        // T_prev_cur of the last two good frames
   std::optional<SE3> coast_velocity_;  // velocity_ when the track was lost
   std::optional<SO3> attitude_hint_;   // set_attitude_hint()
-  int lost_frames_ = 0;                // frames since the track was lost
+  std::optional<mapping::GyroLink> gyro_link_;
+  int lost_frames_ = 0;  // frames since the track was lost
   mapping::KeyframeId reference_kf_ = -1;
   mapping::KeyframeId last_kf_ = -1;
   std::vector<mapping::KeyframeId> culled_;     // by the last insert_keyframe, for TrackResult

@@ -72,6 +72,32 @@ TEST(LocalBa, DisparityJacobiansMatchNumeric) {
 
 // Six keyframes along a sideways path look at 300 points; keyframe 0 is exact (it defines the
 // world), the others and every point start perturbed.
+TEST(LocalBa, RotationLinkJacobiansMatchNumeric) {
+  const SE3 Ti(SO3::exp(Vec3(0.3, -0.2, 0.1)), Vec3(0.2, 0.4, -0.3));
+  const SE3 Tj(SO3::exp(Vec3(0.25, -0.1, 0.3)), Vec3(0.1, 0.5, -0.2));
+  // A gyro rotation close to, not equal to, the poses' relative rotation.
+  const Mat3 D = (SO3::exp(Vec3(0.01, -0.02, 0.015)) * Tj.so3() * Ti.so3().inverse()).matrix();
+  Vec3 r;
+  Mat36 Ji, Jj;
+  rotation_link_jacobians(D, Ti, Tj, &r, &Ji, &Jj);
+  EXPECT_GT(r.norm(), 0.01);
+  constexpr double h = 1e-6;
+  for (int j = 0; j < 6; ++j) {
+    Vec6 d = Vec6::Zero();
+    d[j] = h;
+    Vec3 rp, rm;
+    rotation_link_jacobians(D, SE3::exp(d) * Ti, Tj, &rp, nullptr, nullptr);
+    rotation_link_jacobians(D, SE3::exp(-d) * Ti, Tj, &rm, nullptr, nullptr);
+    EXPECT_LT(((rp - rm) / (2 * h) - Ji.col(j)).norm(), 1e-6) << "from column " << j;
+    rotation_link_jacobians(D, Ti, SE3::exp(d) * Tj, &rp, nullptr, nullptr);
+    rotation_link_jacobians(D, Ti, SE3::exp(-d) * Tj, &rm, nullptr, nullptr);
+    EXPECT_LT(((rp - rm) / (2 * h) - Jj.col(j)).norm(), 1e-6) << "to column " << j;
+  }
+  // Consistent poses: no residual.
+  rotation_link_jacobians((Tj.so3() * Ti.so3().inverse()).matrix(), Ti, Tj, &r, nullptr, nullptr);
+  EXPECT_LT(r.norm(), 1e-12);
+}
+
 TEST(LocalBa, RecoversPosesAndPointsFromNoisyInitialValues) {
   const PinholeCamera cam = camera();
   std::mt19937 rng(42);
@@ -160,6 +186,92 @@ TEST(LocalBa, RecoversPosesAndPointsFromNoisyInitialValues) {
         180 / M_PI;
     EXPECT_LT(deg, 0.05) << "keyframe " << k;
   }
+}
+
+TEST(LocalBa, GyroLinksHoldKeyframeRotationsWhereVisionIsWeak) {
+  // Few, noisy points far away: vision leaves each keyframe's rotation off by a few tenths of a
+  // degree. The gyro's relative rotations (exact here) tie the keyframes to the fixed first one.
+  const PinholeCamera cam = camera();
+  std::mt19937 rng(7);
+  std::normal_distribution<double> px_noise(0.0, 2.0), n01(0.0, 1.0);
+  std::uniform_real_distribution<double> ux(-3.0, 3.0), uy(-2.0, 2.0), uz(6.0, 8.0);
+  const int kPoints = 40, kKeyframes = 5;
+  std::vector<Vec3> truth;
+  for (int i = 0; i < kPoints; ++i) truth.emplace_back(ux(rng), uy(rng), uz(rng));
+  std::vector<SE3> poses;
+  for (int k = 0; k < kKeyframes; ++k) {
+    poses.emplace_back(SO3::exp(Vec3(0.02 * k, -0.05 * k, 0.01 * k)),
+                       Vec3(0.1 * k, 0.02 * k, 0.03 * k));
+  }
+  auto build = [&](bool links) {
+    Map map;
+    std::mt19937 r2(11);
+    std::vector<PointId> ids;
+    for (int k = 0; k < kKeyframes; ++k) {
+      FrameFeatures f;
+      f.width = cam.width;
+      f.height = cam.height;
+      const SE3 T_c_w = poses[static_cast<std::size_t>(k)].inverse();
+      for (const Vec3& p : truth) {
+        const Vec3 p_c = T_c_w * p;
+        tracking::Keypoint kp;
+        kp.un = kp.px = *cam.project(p_c) + Vec2(px_noise(r2), px_noise(r2));
+        f.keypoints.push_back(kp);
+        f.descriptors.emplace_back();
+        f.depth.push_back(p_c.z() * (1.0 + 0.02 * n01(r2)));
+        f.points_c.push_back(p_c);
+        f.status.push_back(tracking::FeatureStatus::kStatic);
+      }
+      SE3 init = poses[static_cast<std::size_t>(k)];
+      if (k > 0) init = SE3::exp(Vec6(0.02, -0.01, 0.01, 0.01, -0.01, 0.008)) * init;
+      const KeyframeId kid = map.add_keyframe(k, init, f);
+      if (links && k > 0) {
+        GyroLink l;
+        l.from = kid - 1;
+        l.R_c_from = (poses[static_cast<std::size_t>(k)].so3().inverse() *
+                      poses[static_cast<std::size_t>(k - 1)].so3())
+                         .matrix();
+        l.sigma_rad = 1e-4;
+        map.keyframe(kid)->gyro = l;
+      }
+      for (int i = 0; i < kPoints; ++i) {
+        if (k == 0) {
+          ids.push_back(map.add_point(truth[static_cast<std::size_t>(i)], kid, i));
+        } else {
+          map.add_observation(ids[static_cast<std::size_t>(i)], kid, i);
+        }
+      }
+    }
+    for (int k = 0; k < kKeyframes; ++k) map.update_connections(k, 5);
+    EXPECT_TRUE(local_bundle_adjustment(map, kKeyframes - 1, cam).ran);
+    double worst = 0.0;
+    for (int k = 1; k < kKeyframes; ++k) {
+      worst = std::max(
+          worst, (map.keyframe(k)->T_w_c.so3().inverse() * poses[static_cast<std::size_t>(k)].so3())
+                     .angle());
+    }
+    return worst * 180 / M_PI;
+  };
+  const double vision_only = build(false), with_gyro = build(true);
+  EXPECT_GT(vision_only, 0.1);
+  EXPECT_LT(with_gyro, 0.03) << "vision only: " << vision_only << " deg";
+}
+
+TEST(Map, ErasingAKeyframeCarriesItsGyroLinkThrough) {
+  Map map;
+  const SO3 a = SO3::exp(Vec3(0.1, 0, 0)), b = SO3::exp(Vec3(0, 0.2, 0));
+  for (int k = 0; k < 3; ++k) map.add_keyframe(k, SE3(), FrameFeatures{});
+  map.keyframe(1)->gyro = GyroLink{0, a.matrix(), 0.5, 3e-4};
+  map.keyframe(2)->gyro = GyroLink{1, b.matrix(), 0.25, 4e-4};
+  map.erase_keyframe(1);
+  ASSERT_TRUE(map.keyframe(2)->gyro);
+  const GyroLink& l = *map.keyframe(2)->gyro;
+  EXPECT_EQ(l.from, 0);
+  EXPECT_LT((SO3(l.R_c_from).inverse() * b * a).angle(), 1e-12);
+  EXPECT_DOUBLE_EQ(l.dt_s, 0.75);
+  EXPECT_NEAR(l.sigma_rad, 5e-4, 1e-12);
+  map.erase_keyframe(0);  // nothing before it: the link goes
+  EXPECT_FALSE(map.keyframe(2)->gyro);
 }
 
 }  // namespace
