@@ -569,8 +569,8 @@ struct System::Impl {
       }
     }
     tracker.set_attitude_hint(attitude);
-    t0 = Clock::now();
     if (inertial) link_gyro(frame.t);
+    t0 = Clock::now();
     const tracking::TrackResult tr =
         prior && (options.inertial_prior || options.inertial_gate_chi2 > 0.0)
             ? tracker.track(std::move(features), *prior, &keep)
