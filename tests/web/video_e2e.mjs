@@ -184,9 +184,24 @@ try {
     const v = await video(page2);
     return v && v.state === 'playing' && v.frames > 10 ? v : null;
   }, 20000);
-  const still = await video();
+  // The first viewer keeps decoding: its count grows between two looks. Not against the count
+  // from before the second viewer joined: with both cores loaded (the team test beside it) a
+  // stalled first viewer restarts its peer, as the page does, and counts afresh (77 -> 27 seen).
+  let seen = await video();
+  let advancing = null;
+  try {
+    advancing = await waitFor('the first viewer to keep decoding', async () => {
+      const v = await video();
+      const ok = v && seen && v.decoded > seen.decoded ? v : null;
+      seen = v || seen;
+      return ok;
+    }, 10000);
+  } catch {
+    advancing = null;
+  }
   check(v2.videoWidth === width, `second viewer plays ${v2.videoWidth}x${v2.videoHeight}`);
-  check(still.decoded > after.decoded, `first viewer still decoding with two viewers (${after.decoded} → ${still.decoded})`);
+  check(advancing !== null,
+        `first viewer still decoding with two viewers (${after.decoded} before the second joined, ${seen?.decoded} after)`);
   await page2.close();
 
   // Reload mid-stream: the video resumes.
