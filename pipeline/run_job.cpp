@@ -3,6 +3,7 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -45,8 +46,10 @@ class RunObserver : public Observer {
   void on_frame(const FrameReport& r) override {
     progress_.update(++done_, tracking::to_string(r.state));
     std::lock_guard lock(mutex_);
+    const std::array<std::size_t, 4> removal = {r.removal.dynamic_total, r.removal.dynamic_removed,
+                                                r.removal.static_total, r.removal.static_kept};
     rows_.push_back({r.t, r.state, r.features, r.dynamic_features, r.inliers, r.detections,
-                     r.keyframe, r.latency_ms, r.source, r.imu_chi2, r.removal});
+                     r.keyframe, r.latency_ms, r.source, r.imu_chi2, removal});
     for (KeptFrame& k : strip_) {
       if (!k.frame.color.empty() && k.frame.t == r.t) k.report = r;
     }
@@ -64,8 +67,7 @@ class RunObserver : public Observer {
       std::snprintf(line, sizeof(line), "%.9f,%s,%d,%d,%d,%d,%d,%.2f,%s,%.3g,%zu,%zu,%zu,%zu\n",
                     to_seconds(r.t), tracking::to_string(r.state), r.features, r.dynamic, r.inliers,
                     r.detections, r.keyframe ? 1 : 0, r.latency_ms, to_string(r.source), r.imu_chi2,
-                    r.removal.dynamic_total, r.removal.dynamic_removed, r.removal.static_total,
-                    r.removal.static_kept);
+                    r.removal[0], r.removal[1], r.removal[2], r.removal[3]);
       out << line;
     }
     if (!out) throw Error::at(path, 0, "", "write error");
@@ -80,7 +82,9 @@ class RunObserver : public Observer {
     double latency_ms;
     PoseSource source;
     double imu_chi2;
-    dynamic::RemovalCounts removal;
+    // dynamic total, removed, static total, kept: a row per frame for the whole run, so not
+    // the whole RemovalCounts with its per-reason tables.
+    std::array<std::size_t, 4> removal;
   };
   ProgressBar& progress_;
   std::vector<KeptFrame>& strip_;

@@ -16,6 +16,28 @@ PinholeCamera camera() {
   return c;
 }
 
+// What a keyframe at T_c_w sees of `truth`: every point projected with pixel noise, its depth
+// with relative noise, all static.
+FrameFeatures observe(const PinholeCamera& cam, const SE3& T_c_w, const std::vector<Vec3>& truth,
+                      std::normal_distribution<double>& px_noise,
+                      std::normal_distribution<double>& n01, double depth_rel_sigma,
+                      std::mt19937& rng) {
+  FrameFeatures f;
+  f.width = cam.width;
+  f.height = cam.height;
+  for (const Vec3& p : truth) {
+    const Vec3 p_c = T_c_w * p;
+    tracking::Keypoint kp;
+    kp.un = kp.px = *cam.project(p_c) + Vec2(px_noise(rng), px_noise(rng));
+    f.keypoints.push_back(kp);
+    f.descriptors.emplace_back();
+    f.depth.push_back(p_c.z() * (1.0 + depth_rel_sigma * n01(rng)));
+    f.points_c.push_back(p_c);
+    f.status.push_back(tracking::FeatureStatus::kStatic);
+  }
+  return f;
+}
+
 TEST(LocalBa, ReprojectionJacobiansMatchNumeric) {
   const PinholeCamera cam = camera();
   const SE3 T(SO3::exp(Vec3(0.3, -0.2, 0.1)), Vec3(0.2, 0.4, -0.3));
@@ -114,20 +136,8 @@ TEST(LocalBa, RecoversPosesAndPointsFromNoisyInitialValues) {
   Map map;
   std::vector<PointId> ids;
   for (int k = 0; k < kKeyframes; ++k) {
-    FrameFeatures f;
-    f.width = cam.width;
-    f.height = cam.height;
-    const SE3 T_c_w = poses[static_cast<std::size_t>(k)].inverse();
-    for (const Vec3& p : truth) {
-      const Vec3 p_c = T_c_w * p;
-      tracking::Keypoint kp;
-      kp.un = kp.px = *cam.project(p_c) + Vec2(px_noise(rng), px_noise(rng));
-      f.keypoints.push_back(kp);
-      f.descriptors.emplace_back();
-      f.depth.push_back(p_c.z() * (1.0 + 0.002 * n01(rng)));
-      f.points_c.push_back(p_c);
-      f.status.push_back(tracking::FeatureStatus::kStatic);
-    }
+    const FrameFeatures f = observe(cam, poses[static_cast<std::size_t>(k)].inverse(), truth,
+                                    px_noise, n01, 0.002, rng);
     SE3 init = poses[static_cast<std::size_t>(k)];
     if (k > 0) {
       Vec6 d;
@@ -208,20 +218,8 @@ TEST(LocalBa, GyroLinksHoldKeyframeRotationsWhereVisionIsWeak) {
     std::mt19937 r2(11);
     std::vector<PointId> ids;
     for (int k = 0; k < kKeyframes; ++k) {
-      FrameFeatures f;
-      f.width = cam.width;
-      f.height = cam.height;
-      const SE3 T_c_w = poses[static_cast<std::size_t>(k)].inverse();
-      for (const Vec3& p : truth) {
-        const Vec3 p_c = T_c_w * p;
-        tracking::Keypoint kp;
-        kp.un = kp.px = *cam.project(p_c) + Vec2(px_noise(r2), px_noise(r2));
-        f.keypoints.push_back(kp);
-        f.descriptors.emplace_back();
-        f.depth.push_back(p_c.z() * (1.0 + 0.02 * n01(r2)));
-        f.points_c.push_back(p_c);
-        f.status.push_back(tracking::FeatureStatus::kStatic);
-      }
+      const FrameFeatures f = observe(cam, poses[static_cast<std::size_t>(k)].inverse(), truth,
+                                      px_noise, n01, 0.02, r2);
       SE3 init = poses[static_cast<std::size_t>(k)];
       if (k > 0) init = SE3::exp(Vec6(0.02, -0.01, 0.01, 0.01, -0.01, 0.008)) * init;
       const KeyframeId kid = map.add_keyframe(k, init, f);
