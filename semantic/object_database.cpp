@@ -7,6 +7,7 @@
 
 #include "core/error.hpp"
 #include "semantic/euclidean_clusters.hpp"
+#include "semantic/size_prior.hpp"
 
 namespace kestrel::semantic {
 namespace {
@@ -382,6 +383,11 @@ std::vector<ObjectDatabase::Measurement> ObjectDatabase::measure_all(
     m.points_c = thin(members, options_.point_voxel, options_.max_points_per_observation);
     for (const auto& p : m.points_c) m.points_w.push_back(Rf * p + tf);
     m.box = fit_upright_box(m.points_w);
+    if (options_.size_priors) {
+      if (const auto prior = footprint_prior(m.label)) {
+        m.box = complete_with_prior(m.box, {kf.T_w_c.translation()}, *prior);
+      }
+    }
     m.cut = continues_past_box(box, chosen[b]);
     out.push_back(std::move(m));
   }
@@ -412,6 +418,16 @@ void ObjectDatabase::refit(Entry& e) const {
   e.voxels = voxels_of(pts);
   if (pts.empty()) return;
   UprightBox b = fit_upright_box(pts);
+  if (options_.size_priors) {
+    if (const auto prior = footprint_prior(e.object.label)) {
+      std::vector<Vec3> viewpoints;
+      for (const Observation& o : e.views) {
+        const auto it = keyframe_poses_.find(o.keyframe_id);
+        if (it != keyframe_poses_.end()) viewpoints.push_back(it->second.translation());
+      }
+      b = complete_with_prior(b, viewpoints, *prior);
+    }
+  }
   // Objects standing on the floor reach down to it: the floor band was cut from the points.
   const double bottom = b.center.z() - b.size.z() / 2;
   const double top = b.center.z() + b.size.z() / 2;

@@ -59,6 +59,8 @@ struct ObjectDatabaseOptions {
   double min_edge_continuation = 0.5;
   int min_whole_observations = 1;
   double moving_iou = 0.3;  // a moving box this close to an object's projection removes it
+  // Sides no view could see are completed to their class's smallest size (size_prior.hpp).
+  bool size_priors = true;
 };
 
 struct ObjectKeyframe {
