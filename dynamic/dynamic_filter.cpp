@@ -161,6 +161,8 @@ const char* to_string(LabelReason r) {
       return "outline-background";
     case LabelReason::kOutlineNoDepth:
       return "outline-no-depth";
+    case LabelReason::kFarBoxNoDepth:
+      return "far-box-no-depth";
   }
   return "?";
 }
@@ -226,6 +228,7 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
   // The detected object's own depth: the median depth of the box's core (its central part,
   // where a person's torso or a car's body is), and which features lie at that depth.
   std::vector<bool> foreground(n, false);
+  std::vector<bool> far_box_no_depth(n, false);  // DynamicFilterOptions::far_box_no_depth_dynamic
   // 1: behind the object with its window on the object's outline; 2: the same without depth.
   std::vector<std::uint8_t> outline(n, 0);
   const bool depth_image = in.cur_depth && !in.cur_depth->empty() &&
@@ -243,7 +246,17 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
           core_depths.push_back(in.depth_m[i]);
         }
       }
-      if (core_depths.size() < 3) continue;
+      if (core_depths.size() < 3) {
+        if (opt.far_box_no_depth_dynamic) {
+          for (std::size_t i = 0; i < n; ++i) {
+            if (in.depth_m[i] <= 0 && std::find(boxes_of[i].begin(), boxes_of[i].end(),
+                                                static_cast<int>(b)) != boxes_of[i].end()) {
+              far_box_no_depth[i] = true;
+            }
+          }
+        }
+        continue;
+      }
       const double d_fg = median_of(core_depths);
       const double band = std::max(opt.foreground_band_m, opt.foreground_band_rel * d_fg);
       for (std::size_t i = 0; i < n; ++i) {
@@ -609,6 +622,11 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
     if (foreground[i]) {
       out.labels[i] = FeatureLabel::kDynamic;
       out.reasons[i] = LabelReason::kForegroundInBox;
+      continue;
+    }
+    if (far_box_no_depth[i]) {
+      out.labels[i] = FeatureLabel::kDynamic;
+      out.reasons[i] = LabelReason::kFarBoxNoDepth;
       continue;
     }
     if (!in_box) {

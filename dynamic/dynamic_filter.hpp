@@ -42,6 +42,7 @@ enum class LabelReason : std::uint8_t {
   kLongBaseline,       // consistent against the previous frame, moved against an older one
   kOutlineBackground,  // in a box, behind the object, its patch straddling the object's outline
   kOutlineNoDepth,     // in a box, no depth, its patch straddling the object's outline
+  kFarBoxNoDepth,      // in a box whose object is beyond the depth range, no depth either
 };
 
 const char* to_string(LabelReason r);
@@ -104,6 +105,11 @@ struct DynamicFilterOptions {
   // reports the table at (-1.5, 6.8) behind its chair (recall 0.83).
   bool outline_by_depth = false;
   bool outline_no_depth_dynamic = false;  // bench: +3 pts removed, -1.4 kept on market
+  // A box whose core has no depth (a walker beyond the sensor's range) gives the object no depth
+  // to tell it from what is seen around it, and the epipolar test cannot see a far walker move
+  // across a few frames; a feature in it without depth is on the walker or on something farther
+  // still, which vision ranges no better. Such features are dynamic.
+  bool far_box_no_depth_dynamic = true;
   // Ego-motion prior (DynamicFilterInput::t_cur_prev): when the RANSAC motion lies further than
   // this many sigmas from the prediction, the prediction, refined on the points it explains to
   // prior_inlier_px, is the camera's motion instead.

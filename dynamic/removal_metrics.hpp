@@ -18,7 +18,7 @@ struct RemovalCounts {
   std::size_t static_total = 0;
   std::size_t static_kept = 0;
   // Where the errors come from, by the filter's reason (index: LabelReason).
-  static constexpr std::size_t kReasons = 14;
+  static constexpr std::size_t kReasons = 15;
   std::array<std::size_t, kReasons> dynamic_missed_by_reason{};
   std::array<std::size_t, kReasons> static_removed_by_reason{};
 

@@ -196,6 +196,44 @@ TEST(DynamicFilter, DepthGivesEgoMotionWithoutParallaxAmbiguity) {
   EXPECT_GE(h.kept, 95.0);
 }
 
+// A walker beyond the sensor's range standing still, in a detector's box: with no depth on it
+// the box cannot be split into the object and its background, and a still walker passes the
+// epipolar test. Its features without depth are dynamic (far_box_no_depth_dynamic); outside the
+// box, features without depth are still judged by geometry.
+TEST(DynamicFilter, FarWalkerWithoutDepthIsRemovedFromItsBox) {
+  const Scene s = make_scene({0.02, 0, 0}, {0, 0, 0});
+  const Image prev = to_image(s.prev), cur = to_image(s.cur);
+  DynamicFilterInput in = input_for(s, prev, cur);
+  in.depth_m = depths_of(s, 0.0);
+  for (std::size_t i = 0; i < s.points.size(); ++i) {
+    const int id =
+        s.ids.at<uint8_t>(static_cast<int>(s.points[i].y()), static_cast<int>(s.points[i].x()));
+    if (id != 1) in.depth_m[i] = 0.0;  // only the near box is in range
+  }
+  in.boxes = {mover_box(s)};
+  DynamicFilterOptions off;
+  off.far_box_no_depth_dynamic = false;
+  const Score before = score(s, classify_features(in, off));
+  EXPECT_LT(before.removed, 50.0);  // still: on its epipolar lines
+  const DynamicFilterResult r = classify_features(in, DynamicFilterOptions{});
+  const Score after = score(s, r);
+  EXPECT_GE(after.removed, 95.0);
+  EXPECT_GE(after.kept, 85.0);  // the wall seen through the box goes with the walker
+  int outside_removed = 0, outside = 0;
+  for (std::size_t i = 0; i < s.points.size(); ++i) {
+    if (r.box_of[i] >= 0) {
+      if (in.depth_m[i] <= 0) {
+        EXPECT_EQ(r.labels[i], FeatureLabel::kDynamic);
+      }
+      continue;
+    }
+    ++outside;
+    outside_removed += r.labels[i] == FeatureLabel::kDynamic;
+  }
+  EXPECT_GT(outside, 100);
+  EXPECT_LE(outside_removed, outside / 20);
+}
+
 TEST(DynamicFilter, MotionPriorPicksTheWorldOverACrowdMovingWithTheCamera) {
   // A crowd filling most of the view walks with the camera: between two frames it does not move
   // in the image, the wall behind it does. RANSAC takes the larger consensus, "camera still",
