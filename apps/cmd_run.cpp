@@ -34,6 +34,7 @@ struct RunFlags {
   std::string dynamic = "hybrid";
   std::string mode = "auto";
   bool no_loop = false;
+  bool triangulate = false;
   bool realtime = false;
   double duration = -1.0;  // sim: scenes only
   bool no_movers = false;  // sim: scenes only
@@ -200,6 +201,8 @@ void setup_run(CLI::App& app) {
       ->check(CLI::IsMember({"auto", "rgbd", "rgbd-imu", "stereo", "stereo-imu"}))
       ->capture_default_str();
   cmd->add_flag("--no-loop", flags->no_loop, "no loop closing (odometry and local map only)");
+  cmd->add_flag("--triangulate", flags->triangulate,
+                "also triangulate map points where depth has none (beyond its range, holes)");
   cmd->add_flag("--realtime", flags->realtime,
                 "as a live sensor: frames fed at their stamps' pace, threads run free (detection "
                 "may lag and drop) instead of in lock-step");
@@ -242,6 +245,7 @@ void setup_run(CLI::App& app) {
     opt.out_dir = flags->out;
     opt.mode = flags->mode;
     opt.loop_closing = !flags->no_loop;
+    opt.triangulate = flags->triangulate;
     const RunSummary summary = kestrel::pipeline::run_sequence(*source, opt);
     print_summary("run", summary);
     kestrel::report::ReportInput report;

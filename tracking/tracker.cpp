@@ -580,6 +580,10 @@ KeyframeId Tracker::insert_keyframe(FrameFeatures&& f, const Matched& m, const S
                                              options_.features.max_depth);
   }
   map_.update_connections(kid);
+  if (options_.triangulate) {
+    mapping::triangulate_new_points(map_, kid, camera_, options_.triangulation);
+    map_.update_connections(kid);
+  }
   map_.cull_points(kid, options_.culling);
   culled_ = cull_keyframes(kid, last_kf_);
   if (options_.local_ba) {

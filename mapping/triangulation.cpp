@@ -1,0 +1,184 @@
+#include "mapping/triangulation.hpp"
+
+#include <Eigen/SVD>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+namespace kestrel::mapping {
+
+namespace {
+
+// Linear triangulation (DLT) of normalized image points x1, x2 seen by cameras T1, T2 (c <- w).
+Vec3 triangulate(const SE3& T1, const SE3& T2, const Vec2& x1, const Vec2& x2) {
+  const Eigen::Matrix<double, 3, 4> P1 = T1.matrix().topRows<3>();
+  const Eigen::Matrix<double, 3, 4> P2 = T2.matrix().topRows<3>();
+  Eigen::Matrix4d A;
+  A.row(0) = x1.x() * P1.row(2) - P1.row(0);
+  A.row(1) = x1.y() * P1.row(2) - P1.row(1);
+  A.row(2) = x2.x() * P2.row(2) - P2.row(0);
+  A.row(3) = x2.y() * P2.row(2) - P2.row(1);
+  const Eigen::JacobiSVD<Eigen::Matrix4d> svd(A, Eigen::ComputeFullV);
+  const Eigen::Vector4d X = svd.matrixV().col(3);
+  if (std::abs(X(3)) < 1e-12) return Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
+  return X.head<3>() / X(3);
+}
+
+Mat3 skew(const Vec3& v) {
+  Mat3 m;
+  m << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
+  return m;
+}
+
+double median_depth(const Map& map, const Keyframe& kf) {
+  std::vector<double> z;
+  const SE3 T_c_w = kf.T_c_w();
+  for (PointId p : kf.point_of_feature) {
+    if (const MapPoint* mp = map.point(p)) z.push_back((T_c_w * mp->p_w).z());
+  }
+  for (std::size_t i = 0; i < kf.features.size(); ++i) {
+    if (kf.features.has_depth(i)) z.push_back(kf.features.depth[i]);
+  }
+  if (z.empty()) return 0.0;
+  std::nth_element(z.begin(), z.begin() + static_cast<long>(z.size() / 2), z.end());
+  return z[z.size() / 2];
+}
+
+bool usable(const Keyframe& kf, std::size_t i, bool only_without_depth) {
+  return kf.point_of_feature[i] == kNoPoint &&
+         kf.features.status[i] == tracking::FeatureStatus::kStatic &&
+         !(only_without_depth && kf.features.has_depth(i));
+}
+
+}  // namespace
+
+int triangulate_new_points(Map& map, KeyframeId kid, const PinholeCamera& cam,
+                           const TriangulationOptions& o) {
+  const Keyframe* k1 = map.keyframe(kid);
+  if (!k1) return 0;
+  const tracking::FrameFeatures& f1 = k1->features;
+  const SE3 T1 = k1->T_c_w();
+  const Vec3 c1 = k1->T_w_c.translation();
+  const double cos_min_parallax = std::cos(o.min_parallax_deg * M_PI / 180.0);
+  const double z1 = median_depth(map, *k1);
+  const Mat3 K = cam.K();
+  const Mat3 Kinv = K.inverse();
+  int created = 0;
+  const std::vector<KeyframeId> neighbours = map.covisible(kid, o.neighbours);
+  for (KeyframeId k2id : neighbours) {
+    const Keyframe* k2 = map.keyframe(k2id);
+    if (!k2) continue;
+    const tracking::FrameFeatures& f2 = k2->features;
+    const SE3 T2 = k2->T_c_w();
+    const Vec3 c2 = k2->T_w_c.translation();
+    const double baseline = (c2 - c1).norm();
+    if (z1 > 0.0 && baseline / z1 < o.min_baseline_ratio) continue;
+    // Fundamental matrix from keyframe 1's pixels to keyframe 2's: l2 = F21 x1.
+    const SE3 T21 = T2 * T1.inverse();
+    const Mat3 F21 = Kinv.transpose() * skew(T21.translation()) * T21.rotation() * Kinv;
+    std::vector<int> cand2;
+    for (std::size_t j = 0; j < f2.size(); ++j) {
+      if (usable(*k2, j, o.only_without_depth)) cand2.push_back(static_cast<int>(j));
+    }
+    if (cand2.empty()) continue;
+    // The epipole in keyframe 2: a match too close to it has no parallax along its line.
+    const Vec3 e2 = K * (T2 * c1);
+    const bool epipole_in_front = e2.z() > 0.0;
+    const Vec2 epipole = epipole_in_front ? Vec2(e2.head<2>() / e2.z()) : Vec2::Zero();
+    std::vector<char> taken(f2.size(), 0);
+    for (std::size_t i = 0; i < f1.size(); ++i) {
+      if (!usable(*k1, i, o.only_without_depth)) continue;
+      // Re-read: a point created for i with an earlier neighbour.
+      if (map.keyframe(kid)->point_of_feature[i] != kNoPoint) continue;
+      const Vec2& u1 = f1.keypoints[i].un;
+      const Vec3 l = F21 * Vec3(u1.x(), u1.y(), 1.0);
+      const double ln = std::hypot(l.x(), l.y());
+      if (ln < 1e-12) continue;
+      int best = -1, best_d = 256, second_d = 256;
+      for (int j : cand2) {
+        if (taken[static_cast<std::size_t>(j)]) continue;
+        const auto& kp2 = f2.keypoints[static_cast<std::size_t>(j)];
+        // Matched features see the point at similar scales.
+        if (std::abs(kp2.level - f1.keypoints[i].level) > 1) continue;
+        const double dist = (l.x() * kp2.un.x() + l.y() * kp2.un.y() + l.z()) / ln;
+        if (dist * dist > o.epipolar_chi2 * f2.level_sigma2(kp2.level)) continue;
+        if (epipole_in_front) {
+          const double sl = f2.level_scale(kp2.level);
+          if ((kp2.un - epipole).squaredNorm() < 100.0 * sl * sl) continue;
+        }
+        const int d =
+            tracking::hamming(f1.descriptors[i], f2.descriptors[static_cast<std::size_t>(j)]);
+        if (d < best_d) {
+          second_d = best_d;
+          best_d = d;
+          best = j;
+        } else if (d < second_d) {
+          second_d = d;
+        }
+      }
+      if (best < 0 || best_d > o.max_hamming || best_d > o.ratio * second_d) continue;
+      const auto& kp1 = f1.keypoints[i];
+      const auto& kp2 = f2.keypoints[static_cast<std::size_t>(best)];
+      const Vec3 r1 = Kinv * Vec3(kp1.un.x(), kp1.un.y(), 1.0);
+      const Vec3 r2 = Kinv * Vec3(kp2.un.x(), kp2.un.y(), 1.0);
+      // Parallax between the rays, in the world frame.
+      const Vec3 w1 = k1->T_w_c.rotation() * r1, w2 = k2->T_w_c.rotation() * r2;
+      if (w1.normalized().dot(w2.normalized()) > cos_min_parallax) continue;
+      const Vec3 X = triangulate(T1, T2, r1.head<2>(), r2.head<2>());
+      if (!X.allFinite()) continue;
+      const Vec3 x1c = T1 * X, x2c = T2 * X;
+      if (x1c.z() <= 0.0 || x2c.z() <= 0.0 || x1c.norm() > o.max_distance) continue;
+      const auto reproj_ok = [&](const Vec3& xc, const Vec2& un, double sigma2) {
+        const Vec2 p(cam.fx * xc.x() / xc.z() + cam.cx, cam.fy * xc.y() / xc.z() + cam.cy);
+        return (p - un).squaredNorm() <= o.reprojection_chi2 * sigma2;
+      };
+      if (!reproj_ok(x1c, kp1.un, f1.level_sigma2(kp1.level)) ||
+          !reproj_ok(x2c, kp2.un, f2.level_sigma2(kp2.level))) {
+        continue;
+      }
+      // Scale consistency: the distance ratio must agree with the pyramid levels' ratio.
+      const double ratio_dist = (X - c1).norm() / std::max(1e-9, (X - c2).norm());
+      const double ratio_octave = f1.level_scale(kp1.level) / f2.level_scale(kp2.level);
+      const double sf = 1.5 * f1.scale_factor;
+      if (ratio_dist * sf < ratio_octave || ratio_dist > ratio_octave * sf) continue;
+      // A third keyframe must see it where it projects: a mover that happened to fit one
+      // epipolar line between two views rarely fits a third.
+      std::vector<std::pair<KeyframeId, int>> more;
+      if (o.min_views > 2) {
+        for (KeyframeId k3id : neighbours) {
+          if (k3id == k2id || static_cast<int>(more.size()) + 2 >= o.min_views) continue;
+          const Keyframe* k3 = map.keyframe(k3id);
+          if (!k3) continue;
+          const Vec3 x3 = k3->T_c_w() * X;
+          if (x3.z() <= 0.0) continue;
+          const Vec2 p3(cam.fx * x3.x() / x3.z() + cam.cx, cam.fy * x3.y() / x3.z() + cam.cy);
+          const tracking::FrameFeatures& f3 = k3->features;
+          int best3 = -1, best3_d = o.max_hamming + 1;
+          const double r = 2.0 * std::sqrt(o.reprojection_chi2) * f3.level_scale(kp1.level);
+          // A linear scan: mapping/ does not link tracking/'s grid (FrameFeatures::in_radius).
+          for (std::size_t j = 0; j < f3.size(); ++j) {
+            const auto& kp3 = f3.keypoints[j];
+            if ((kp3.un - p3).squaredNorm() > r * r || std::abs(kp3.level - kp1.level) > 1 ||
+                !usable(*k3, j, false)) {
+              continue;
+            }
+            const int d = tracking::hamming(f1.descriptors[i], f3.descriptors[j]);
+            if (d < best3_d) best3_d = d, best3 = static_cast<int>(j);
+          }
+          if (best3 >= 0) more.emplace_back(k3id, best3);
+        }
+        if (static_cast<int>(more.size()) + 2 < o.min_views) continue;
+      }
+      const PointId p = map.add_point(X, kid, static_cast<int>(i));
+      map.add_observation(p, k2id, best);
+      for (const auto& [k3id, j] : more) map.add_observation(p, k3id, j);
+      map.update_point(p);
+      taken[static_cast<std::size_t>(best)] = 1;
+      ++created;
+    }
+  }
+  return created;
+}
+
+}  // namespace kestrel::mapping

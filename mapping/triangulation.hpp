@@ -1,0 +1,33 @@
+#pragma once
+// New map points from two views (ORB-SLAM's CreateNewMapPoints), for the features depth cannot
+// place: beyond the sensor's range (a drone hovering 8 m over the ground, the far walls of a
+// hall) or on holes. A new keyframe's unmatched features are matched, along their epipolar lines,
+// to the unmatched features of its covisible keyframes, and a pair with enough parallax whose
+// triangulated point reprojects into both becomes a map point. Points from depth come first
+// (Map::create_points_from_depth); this fills in what depth leaves out. Culling (Map::cull_points)
+// removes the ones no third keyframe confirms.
+#include "core/camera.hpp"
+#include "mapping/map.hpp"
+
+namespace kestrel::mapping {
+
+struct TriangulationOptions {
+  int neighbours = 6;           // covisible keyframes searched, most shared points first
+  int max_hamming = 50;         // descriptor distance of a match (ORB's TH_LOW)
+  double ratio = 0.8;           // best / second-best distance along the epipolar band
+  double epipolar_chi2 = 3.84;  // distance to the epipolar line, in the level's sigma
+  double reprojection_chi2 = 5.991;
+  double min_parallax_deg = 1.0;     // between the two rays at the point
+  double min_baseline_ratio = 0.01;  // baseline / median scene depth of the keyframe
+  double max_distance = 80.0;        // metres from the keyframe: farther is no better than a ray
+  bool only_without_depth = true;    // features with a depth reading get their point from it
+  // Keyframes that must see the point (a match near its projection) before it is created: two
+  // are the pair; a third rules out most movers that happen to fit one epipolar line.
+  int min_views = 3;
+};
+
+// Returns the number of points created for keyframe `kf`.
+int triangulate_new_points(Map& map, KeyframeId kf, const PinholeCamera& camera,
+                           const TriangulationOptions& options = {});
+
+}  // namespace kestrel::mapping

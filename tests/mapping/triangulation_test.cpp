@@ -1,0 +1,121 @@
+#include "mapping/triangulation.hpp"
+
+#include <gtest/gtest.h>
+
+#include <random>
+
+namespace kestrel::mapping {
+namespace {
+
+// Three keyframes 0.5 m apart along x, looking down +z, see: anchors 3 m away with depth
+// (they make the keyframes covisible), far static points 20-30 m away beyond the depth range,
+// and movers without depth. A mover slides along the epipolar lines between the last two
+// keyframes (so that pair alone takes it for a static point at a wrong depth) and moved across
+// them before.
+struct World {
+  PinholeCamera cam;
+  Map map;
+  std::vector<KeyframeId> kfs;
+  std::vector<Vec3> far;  // truth, indexed like the far features
+  int anchors = 0;
+};
+
+constexpr int kAnchors = 40, kFar = 60, kMovers = 10;
+
+World make_world(double baseline) {
+  World w;
+  w.cam.fx = w.cam.fy = 500.0;
+  w.cam.cx = 320.0;
+  w.cam.cy = 240.0;
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> ux(-0.5, 0.5), uy(-0.35, 0.35), uz(20.0, 30.0);
+  std::vector<OrbDescriptor> desc(kAnchors + kFar + kMovers);
+  for (auto& d : desc) d.words = {rng(), rng(), rng(), rng()};
+  std::vector<Vec3> anchors;
+  for (int i = 0; i < kAnchors; ++i) anchors.emplace_back(ux(rng) * 3.0, uy(rng) * 3.0, 3.0);
+  for (int i = 0; i < kFar; ++i) {
+    const double z = uz(rng);
+    w.far.emplace_back(ux(rng) * z, uy(rng) * z, z);
+  }
+  std::vector<Vec3> movers;
+  for (int i = 0; i < kMovers; ++i) movers.emplace_back(ux(rng) * 20.0, uy(rng) * 20.0, 25.0);
+  for (int k = 0; k < 3; ++k) {
+    const SE3 T_w_c(SO3(), Vec3(baseline * k, 0, 0));
+    FrameFeatures f;
+    f.width = 640;
+    f.height = 480;
+    auto add = [&](const Vec3& p_w, int id, bool with_depth) {
+      const Vec3 pc = T_w_c.inverse() * p_w;
+      tracking::Keypoint kp;
+      kp.px = kp.un =
+          Vec2(w.cam.fx * pc.x() / pc.z() + w.cam.cx, w.cam.fy * pc.y() / pc.z() + w.cam.cy);
+      f.keypoints.push_back(kp);
+      f.descriptors.push_back(desc[static_cast<std::size_t>(id)]);
+      f.depth.push_back(with_depth ? pc.z() : 0.0);
+      f.sensor_depth.push_back(f.depth.back());
+      f.points_c.push_back(with_depth ? pc : Vec3::Zero());
+      f.status.push_back(tracking::FeatureStatus::kStatic);
+    };
+    for (int i = 0; i < kAnchors; ++i) add(anchors[i], i, true);
+    for (int i = 0; i < kFar; ++i) add(w.far[i], kAnchors + i, false);
+    for (int i = 0; i < kMovers; ++i) {
+      // k0: 0.6 m higher; k1 -> k2: 0.3 m along -x (along the epipolar lines).
+      const Vec3 at = movers[i] + (k == 0 ? Vec3(0, 0.6, 0) : Vec3(k == 2 ? -0.3 : 0.0, 0, 0));
+      add(at, kAnchors + kFar + i, false);
+    }
+    w.kfs.push_back(w.map.add_keyframe(k, T_w_c, std::move(f)));
+  }
+  // Anchors are map points from keyframe 0's depth, seen by all three.
+  for (int i = 0; i < kAnchors; ++i) {
+    const PointId p = w.map.add_point(anchors[i], w.kfs[0], i);
+    w.map.add_observation(p, w.kfs[1], i);
+    w.map.add_observation(p, w.kfs[2], i);
+    w.map.update_point(p);
+  }
+  for (KeyframeId k : w.kfs) w.map.update_connections(k, 10);
+  return w;
+}
+
+TEST(Triangulation, FarPointsWithoutDepthBecomeMapPointsWhereTheyAre) {
+  World w = make_world(0.5);
+  const int created = triangulate_new_points(w.map, w.kfs[2], w.cam);
+  EXPECT_GE(created, kFar * 8 / 10);
+  const Keyframe* k2 = w.map.keyframe(w.kfs[2]);
+  int checked = 0;
+  for (int i = 0; i < kFar; ++i) {
+    const MapPoint* p = w.map.point(k2->point_of_feature[static_cast<std::size_t>(kAnchors + i)]);
+    if (!p) continue;
+    ++checked;
+    // Noise-free pixels: only the triangulation's conditioning limits the error.
+    EXPECT_LT((p->p_w - w.far[static_cast<std::size_t>(i)]).norm(), 0.01 * w.far[i].z()) << i;
+    EXPECT_EQ(p->observations.size(), 3u);  // the pair and the confirming keyframe
+  }
+  EXPECT_EQ(checked, created);
+  for (int i = 0; i < kMovers; ++i) {
+    EXPECT_EQ(k2->point_of_feature[static_cast<std::size_t>(kAnchors + kFar + i)], kNoPoint) << i;
+  }
+  // Features with depth are left to Map::create_points_from_depth: anchors keep their points.
+  EXPECT_EQ(w.map.num_points(), static_cast<std::size_t>(kAnchors + created));
+}
+
+TEST(Triangulation, TwoViewsAloneTakeAMoverAlongTheEpipolarLineForAPoint) {
+  World w = make_world(0.5);
+  TriangulationOptions two;
+  two.min_views = 2;
+  triangulate_new_points(w.map, w.kfs[2], w.cam, two);
+  const Keyframe* k2 = w.map.keyframe(w.kfs[2]);
+  int movers_made = 0;
+  for (int i = 0; i < kMovers; ++i) {
+    movers_made += k2->point_of_feature[static_cast<std::size_t>(kAnchors + kFar + i)] != kNoPoint;
+  }
+  EXPECT_GT(movers_made, kMovers / 2);  // why the third view is asked for by default
+}
+
+TEST(Triangulation, NoParallaxNoPoints) {
+  World w = make_world(0.01);  // 1 cm baselines, points 20-30 m away: far below a degree
+  EXPECT_EQ(triangulate_new_points(w.map, w.kfs[2], w.cam), 0);
+  EXPECT_EQ(triangulate_new_points(w.map, 12345, w.cam), 0);  // no such keyframe
+}
+
+}  // namespace
+}  // namespace kestrel::mapping
