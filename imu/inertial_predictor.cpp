@@ -55,6 +55,18 @@ void InertialPredictor::clear_fixes() {
   bias_updated_at_ = 0;
 }
 
+void InertialPredictor::reanchor(Timestamp t, const SE3& T_w_b, const Vec3& v_w) {
+  clear_fixes();
+  if (!T_w_b.is_finite() || !v_w.allFinite()) return;
+  fixes_.push_back({t, T_w_b});
+  att_R_ = T_w_b.so3();
+  att_t_ = t;
+  att_fix_t_ = t;
+  bias_updated_at_ = t;
+  v_last_ = v_w;
+  v_fix_ = fixes_.back();
+}
+
 void InertialPredictor::add_fix(Timestamp t, const SE3& T_w_b) {
   if (!T_w_b.is_finite()) return;
   if (!fixes_.empty() && t <= fixes_.back().t) return;

@@ -66,6 +66,10 @@ class InertialPredictor {
   // Forgets the fixes (after a relocalization jump, whose pose is not continuous with them);
   // biases are kept.
   void clear_fixes();
+  // Forgets the fixes and starts again from a single one at t with a known velocity (the IMU's
+  // own, carried through a loss): a relocalization corrects where the body is, not how fast it
+  // moves, and predictions (and what relies on them) need not wait for a new velocity window.
+  void reanchor(Timestamp t, const SE3& T_w_b, const Vec3& v_w);
 
   // Body pose at t from the newest fix and the IMU; nothing when the history is too short,
   // the IMU does not reach t, or the last fix is more than max_gap_s old.

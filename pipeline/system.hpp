@@ -75,6 +75,9 @@ struct SystemOptions {
   // The dynamic filter checks its ego-motion against the IMU's predicted camera motion
   // (dynamic::DynamicFilterInput::t_cur_prev).
   bool dynamic_motion_prior = true;
+  // A relocalization during a short loss restarts the IMU predictor from the relocalized pose
+  // with the IMU's velocity (imu::InertialPredictor::reanchor); false: it waits for new fixes.
+  bool reanchor_on_relocalization = true;
   double inertial_prior_rotation_sigma = 0.001;     // radians
   double inertial_prior_translation_sigma = 0.005;  // metres
   // Live (not sequential) runs wait at most this long for the IMU to pass a frame's stamp.

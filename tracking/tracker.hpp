@@ -69,10 +69,9 @@ struct TrackerOptions {
   // Features depth does not place (beyond its range, holes) are triangulated with the new
   // keyframe's covisible keyframes (mapping/triangulation.hpp). Off by default: 60 s runs
   // (kestrel run --triangulate) gain where depth runs out -- market with YOLO and hybrid
-  // rejection 1344 -> 1800 of 1801 frames tracked, APE 0.143 -> 0.064 m; uav-zigzag without
-  // movers 0.200 -> 0.046 m -- but lose where movers the filter misses get triangulated or the
-  // views are dark: uav-zigzag with walkers 0.59 -> 2.02 m, cafe 0.011 -> 0.026 m, corridor-dark
-  // 0.72 -> 1.45 m.
+  // rejection 1343 -> 1800 of 1801 frames tracked, APE 0.184 -> 0.064 m; uav-zigzag without
+  // movers 0.200 -> 0.046 m; with its walkers 0.313 -> 0.318 m -- but lose on cafe (0.011 ->
+  // 0.026 m) and in the dark (corridor-dark 0.72 -> 1.45 m).
   bool triangulate = false;
   mapping::TriangulationOptions triangulation;
   // Keyframe culling (ORB-SLAM's local mapping): with each new keyframe, a covisible keyframe

@@ -113,6 +113,34 @@ TEST(InertialPredictor, RefusesBeyondTheImuAndTheGap) {
   EXPECT_FALSE(q.predict(from_seconds(t_last + 0.1)));
 }
 
+// A relocalization during a short loss: the predictor restarts from the relocalized pose with
+// the velocity it carried, and predicts the very next frame (clear_fixes would wait for a new
+// velocity window), as well as from a fresh fix of the same pose.
+TEST(InertialPredictor, ReanchorKeepsPredictingWithTheCarriedVelocity) {
+  const Motion m;
+  InertialPredictor p = run(m, 2.0, 0.005, 5e-4, 5, 5.0);
+  const double t_reloc = 2.5;  // half a second without fixes, then a (true) relocalized pose
+  const auto carried = p.predict(from_seconds(t_reloc));
+  ASSERT_TRUE(carried.has_value());
+  const SE3 reloc(m.rotation(t_reloc), m.position(t_reloc));
+  p.reanchor(from_seconds(t_reloc), reloc, carried->v_w);
+  const double t_next = t_reloc + 1.0 / kFrameRate;
+  const auto next = p.predict(from_seconds(t_next));
+  ASSERT_TRUE(next.has_value());
+  EXPECT_NEAR(next->since_fix_s, 1.0 / kFrameRate, 1e-9);
+  EXPECT_LT((next->T_w_b.translation() - m.position(t_next)).norm(), 0.01);
+  // Fixes after the anchor are taken as usual.
+  p.add_fix(from_seconds(t_next), SE3(m.rotation(t_next), m.position(t_next)));
+  EXPECT_TRUE(p.predict(from_seconds(t_next + 1.0 / kFrameRate)).has_value());
+  InertialPredictor q = run(m, 2.0, 0.005, 5e-4, 5, 5.0);
+  q.clear_fixes();
+  q.add_fix(from_seconds(t_reloc), reloc);
+  EXPECT_FALSE(q.predict(from_seconds(t_next))) << "a single fix gives no velocity";
+  InertialPredictor bad = run(m, 2.0, 0.005, 5e-4, 5, 5.0);
+  bad.reanchor(from_seconds(t_reloc), reloc, Vec3::Constant(std::nan("")));
+  EXPECT_FALSE(bad.predict(from_seconds(t_next)));
+}
+
 // Long after the pose is refused (max_gap_s), the gyro alone still knows which way the body
 // faces: what tells a look-alike place seen the other way round from the real one.
 TEST(InertialPredictor, AttitudeOutlivesThePrediction) {
