@@ -593,16 +593,11 @@ struct System::Impl {
       // prior, the tracker's gate) instead of waiting for a new velocity window. Without one,
       // a walker filling the view right after a relocalization took over the track (uav-zigzag,
       // 3.7 s: 13 of 934 mover features removed, the tracker locked onto the walker).
-      if (tr.state == tracking::TrackingState::kRelocalized) {
-        if (predicted_v_w && options.reanchor_on_relocalization) {
-          predictor.reanchor(frame.t, T_w_b, *predicted_v_w);
-        } else {
-          predictor.clear_fixes();
-        }
-      }
-      if (tr.state == tracking::TrackingState::kOk ||
-          (tr.state == tracking::TrackingState::kRelocalized &&
-           !(predicted_v_w && options.reanchor_on_relocalization))) {
+      const bool relocalized = tr.state == tracking::TrackingState::kRelocalized;
+      if (relocalized && predicted_v_w && options.reanchor_on_relocalization) {
+        predictor.reanchor(frame.t, T_w_b, *predicted_v_w);
+      } else if (relocalized || tr.state == tracking::TrackingState::kOk) {
+        if (relocalized) predictor.clear_fixes();
         predictor.add_fix(frame.t, T_w_b);
         if (!gravity_known) estimate_gravity(frame.t, T_w_b);
       }
