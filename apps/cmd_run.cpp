@@ -35,6 +35,7 @@ struct RunFlags {
   std::string mode = "auto";
   bool no_loop = false;
   bool triangulate = false;
+  bool half_resolution_flow = false;
   bool realtime = false;
   double duration = -1.0;  // sim: scenes only
   bool no_movers = false;  // sim: scenes only
@@ -203,6 +204,8 @@ void setup_run(CLI::App& app) {
   cmd->add_flag("--no-loop", flags->no_loop, "no loop closing (odometry and local map only)");
   cmd->add_flag("--triangulate", flags->triangulate,
                 "also triangulate map points where depth has none (beyond its range, holes)");
+  cmd->add_flag("--half-res-flow", flags->half_resolution_flow,
+                "the dynamic filter's flow on the half-resolution image: a quarter of the cost");
   cmd->add_flag("--realtime", flags->realtime,
                 "as a live sensor: frames fed at their stamps' pace, threads run free (detection "
                 "may lag and drop) instead of in lock-step");
@@ -246,6 +249,7 @@ void setup_run(CLI::App& app) {
     opt.mode = flags->mode;
     opt.loop_closing = !flags->no_loop;
     opt.triangulate = flags->triangulate;
+    opt.half_resolution_flow = flags->half_resolution_flow;
     const RunSummary summary = kestrel::pipeline::run_sequence(*source, opt);
     print_summary("run", summary);
     kestrel::report::ReportInput report;

@@ -8,6 +8,10 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "core/camera.hpp"
+#include "core/reprojection.hpp"
+#include "core/se3.hpp"
+
 namespace kestrel::dynamic {
 namespace {
 
@@ -57,31 +61,74 @@ double homography_residual(const cv::Matx33d& H, const cv::Point2f& prev, const 
   return std::hypot(p[0] / p[2] - cur.x, p[1] / p[2] - cur.y);
 }
 
-// Levenberg-Marquardt on the reprojection error of the points within first_gate_px of the
-// current motion, then again on those within kPnpInlierPx of the result. Returns how many points
-// the final motion explains to kPnpInlierPx (0 when too few to refine).
+// Gauss-Newton on the reprojection error of `obj` (current camera frame) seen at `img` (previous
+// frame): the motion T (current into previous camera) that PnP-RANSAC found is already close, so
+// a few plain least-squares steps converge, at a fraction of solvePnPRefineLM's cost.
+SE3 gauss_newton_motion(const PinholeCamera& cam, const std::vector<Vec3>& obj,
+                        const std::vector<Vec2>& img, SE3 T) {
+  constexpr int kIterations = 6;
+  for (int it = 0; it < kIterations; ++it) {
+    Mat6 H = Mat6::Zero();
+    Vec6 b = Vec6::Zero();
+    for (std::size_t k = 0; k < obj.size(); ++k) {
+      Vec2 r;
+      Mat26 J;
+      if (!pose_residual(cam, T, obj[k], img[k], &r, &J)) continue;
+      H.noalias() += J.transpose() * J;
+      b.noalias() += J.transpose() * r;
+    }
+    const Vec6 delta = H.ldlt().solve(-b);
+    if (!delta.allFinite()) break;
+    T = SE3::exp(delta) * T;
+    if (delta.squaredNorm() < 1e-14) break;
+  }
+  return T;
+}
+
+// Gauss-Newton on the reprojection error of the points within first_gate_px of the current
+// motion, then again on those within kPnpInlierPx of the result. Returns how many points the
+// final motion explains to kPnpInlierPx (0 when too few to refine).
 int refine_motion(const std::vector<cv::Point3f>& obj, const std::vector<cv::Point2f>& img,
                   const cv::Matx33d& K, double first_gate_px, cv::Mat& rvec, cv::Mat& tvec) {
-  const auto explained = [&](double gate, std::vector<cv::Point3f>* o,
-                             std::vector<cv::Point2f>* m) {
-    std::vector<cv::Point2f> proj;
-    cv::projectPoints(obj, rvec, tvec, cv::Mat(K), cv::noArray(), proj);
+  PinholeCamera cam;
+  cam.fx = K(0, 0);
+  cam.fy = K(1, 1);
+  cam.cx = K(0, 2);
+  cam.cy = K(1, 2);
+  cv::Matx33d Rcv;
+  cv::Rodrigues(rvec, Rcv);
+  Mat3 R;
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) R(r, c) = Rcv(r, c);
+  }
+  SE3 T(SO3(R), Vec3(tvec.at<double>(0), tvec.at<double>(1), tvec.at<double>(2)));
+  const auto explained = [&](double gate, std::vector<Vec3>* o, std::vector<Vec2>* m) {
     int count = 0;
     for (std::size_t k = 0; k < obj.size(); ++k) {
-      if (std::hypot(proj[k].x - img[k].x, proj[k].y - img[k].y) > gate) continue;
+      const Vec3 X(obj[k].x, obj[k].y, obj[k].z);
+      const Vec2 uv(img[k].x, img[k].y);
+      Vec2 r;
+      if (!pose_residual(cam, T, X, uv, &r) || r.norm() > gate) continue;
       ++count;
-      if (o) o->push_back(obj[k]);
-      if (m) m->push_back(img[k]);
+      if (o) o->push_back(X);
+      if (m) m->push_back(uv);
     }
     return count;
   };
   for (int round = 0; round < 2; ++round) {
-    std::vector<cv::Point3f> obj_in;
-    std::vector<cv::Point2f> img_in;
+    std::vector<Vec3> obj_in;
+    std::vector<Vec2> img_in;
     explained(round == 0 ? first_gate_px : kPnpInlierPx, &obj_in, &img_in);
     if (obj_in.size() < 10) return 0;
-    cv::solvePnPRefineLM(obj_in, img_in, cv::Mat(K), cv::noArray(), rvec, tvec);
+    T = gauss_newton_motion(cam, obj_in, img_in, T);
   }
+  if (!T.is_finite()) return 0;
+  const Mat3 Rr = T.rotation();
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) Rcv(r, c) = Rr(r, c);
+  }
+  cv::Rodrigues(cv::Mat(Rcv), rvec);
+  tvec = (cv::Mat_<double>(3, 1) << T.translation().x(), T.translation().y(), T.translation().z());
   return explained(kPnpInlierPx, nullptr, nullptr);
 }
 
@@ -97,7 +144,14 @@ bool motion_agrees(const cv::Mat& r_a, const cv::Mat& t_a, const cv::Mat& r_b, c
 }
 
 int pyramid_levels(const DynamicFilterOptions& opt) {
-  return std::max({opt.lk_levels, opt.lk_backward_levels, 0});
+  return std::max(opt.lk_base_level, 0) + std::max({opt.lk_levels, opt.lk_backward_levels, 0});
+}
+
+// The pyramid from level `base` up, as calcOpticalFlowPyrLK takes it (image and gradients per
+// level): LK then runs on the half- or quarter-resolution image as if it were the full one.
+std::vector<cv::Mat> from_level(const std::vector<cv::Mat>& pyramid, int base) {
+  const std::size_t skip = std::min(pyramid.size() - 2, 2 * static_cast<std::size_t>(base));
+  return {pyramid.begin() + static_cast<long>(skip), pyramid.end()};
 }
 
 }  // namespace
@@ -341,12 +395,27 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
   const cv::Size win(opt.lk_window, opt.lk_window);
   const cv::TermCriteria term(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, opt.lk_iterations,
                               opt.lk_epsilon_px);
-  cv::calcOpticalFlowPyrLK(cur_pyr.levels->pyramid, prev_pyr.levels->pyramid, pts_cur, pts_prev,
-                           st1, cv::noArray(), win, levels, term, flags, opt.lk_min_eigen);
-  pts_back = pts_cur;
-  cv::calcOpticalFlowPyrLK(prev_pyr.levels->pyramid, cur_pyr.levels->pyramid, pts_prev, pts_back,
-                           st2, cv::noArray(), win, std::min(opt.lk_backward_levels, levels), term,
+  // Flow on the pyramid from lk_base_level up, in that level's pixels (OpenCV's convention:
+  // level-l coordinates are full-resolution ones over 2^l), scaled back afterwards.
+  const int base = std::max(opt.lk_base_level, 0);
+  const float scale = static_cast<float>(1 << base);
+  const std::vector<cv::Mat> cur_levels = from_level(cur_pyr.levels->pyramid, base);
+  const std::vector<cv::Mat> prev_levels = from_level(prev_pyr.levels->pyramid, base);
+  std::vector<cv::Point2f> lk_cur(n), lk_prev(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    lk_cur[i] = pts_cur[i] / scale;
+    lk_prev[i] = pts_prev[i] / scale;
+  }
+  cv::calcOpticalFlowPyrLK(cur_levels, prev_levels, lk_cur, lk_prev, st1, cv::noArray(), win,
+                           levels, term, flags, opt.lk_min_eigen);
+  pts_back = lk_cur;
+  cv::calcOpticalFlowPyrLK(prev_levels, cur_levels, lk_prev, pts_back, st2, cv::noArray(), win,
+                           std::min(opt.lk_backward_levels, levels), term,
                            cv::OPTFLOW_USE_INITIAL_FLOW);
+  for (std::size_t i = 0; i < n; ++i) {
+    pts_prev[i] = lk_prev[i] * scale;
+    pts_back[i] *= scale;
+  }
   std::vector<bool> valid(n, false);
   for (std::size_t i = 0; i < n; ++i) {
     valid[i] = st1[i] && st2[i] &&
@@ -372,37 +441,7 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
   }
   cv::Matx33d F = cv::Matx33d::zeros();
   cv::Matx33d H = cv::Matx33d::eye();
-  if (cand_idx.size() >= 15) {
-    // The camera is calibrated, so fit the essential matrix (5 DOF, five-point RANSAC) rather
-    // than F (7 DOF): with small baselines F bends to fit a large mover as well.
-    std::vector<unsigned char> e_inliers;
-    const cv::Mat Em = cv::findEssentialMat(cand_prev, cand_cur, cv::Mat(Kcv), cv::RANSAC, 0.999,
-                                            opt.ransac_threshold_px, e_inliers);
-    if (Em.rows == 3 && Em.cols == 3) {  // several solutions come stacked; the first is best
-      const cv::Matx33d Kinv = Kcv.inv();
-      F = Kinv.t() * cv::Matx33d(Em) * Kinv;
-      out.geometry_valid = true;
-    }
-    // Camera (nearly) still or only rotating: the rotation homography (IMU) or identity
-    // explains the static flow. Two views cannot tell "still camera, one mover" from "camera
-    // translating, background at infinity", and RANSAC then fits F to the mover too; so when
-    // the rotation-compensated flow of most features is sub-pixel, the homography test decides.
-    cv::Matx33d H_rot = cv::Matx33d::eye();
-    if (in.R_cur_prev) {
-      H_rot = to_matx(in.K * (*in.R_cur_prev) * in.K.inverse());
-    }
-    std::vector<double> ego_flow;
-    ego_flow.reserve(cand_idx.size());
-    for (std::size_t k = 0; k < cand_idx.size(); ++k) {
-      ego_flow.push_back(homography_residual(H_rot, cand_prev[k], cand_cur[k]));
-    }
-    out.degenerate_motion = !out.geometry_valid || median_of(ego_flow) < opt.still_flow_px;
-    H = H_rot;
-    if (out.degenerate_motion && !in.R_cur_prev) {
-      const cv::Mat Hm = cv::findHomography(cand_prev, cand_cur, cv::RANSAC, 1.0);
-      if (Hm.rows == 3) H = cv::Matx33d(Hm);
-    }
-  }
+  const bool enough_background = cand_idx.size() >= 15;
 
   // 2b. With depth, the camera motion itself (PnP-RANSAC of current 3D points against their
   // flow positions in the previous frame) predicts where every static point must have been,
@@ -462,8 +501,10 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
         cv::Rodrigues(rvec, R);
         const cv::Vec3d t(tvec.at<double>(0), tvec.at<double>(1), tvec.at<double>(2));
         have_3d = true;
-        if (out.motion_from_prior && cv::norm(t) > 1e-3) {
-          // Features without depth get the epipolar test of the same motion, not RANSAC's.
+        if (cv::norm(t) > 1e-3) {
+          // Features without depth get the epipolar test of the same motion: measured with
+          // depth, it is not bent by a mover as a five-point fit on flow alone can be, and it
+          // spares that RANSAC.
           const cv::Matx33d R_cp = R.t();
           const cv::Vec3d t_cp = -(R_cp * t);
           const cv::Matx33d tx(0, -t_cp[2], t_cp[1], t_cp[2], 0, -t_cp[0], -t_cp[1], t_cp[0], 0);
@@ -503,6 +544,40 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
           }
         }
       }
+    }
+  }
+  if (enough_background && !out.geometry_valid && !have_3d) {
+    // No depth to measure the motion with: the camera is calibrated, so fit the essential
+    // matrix (5 DOF, five-point RANSAC) rather than F (7 DOF): with small baselines F bends to
+    // fit a large mover as well.
+    std::vector<unsigned char> e_inliers;
+    const cv::Mat Em = cv::findEssentialMat(cand_prev, cand_cur, cv::Mat(Kcv), cv::RANSAC, 0.999,
+                                            opt.ransac_threshold_px, e_inliers);
+    if (Em.rows == 3 && Em.cols == 3) {  // several solutions come stacked; the first is best
+      const cv::Matx33d Kinv = Kcv.inv();
+      F = Kinv.t() * cv::Matx33d(Em) * Kinv;
+      out.geometry_valid = true;
+    }
+  }
+  if (enough_background) {
+    // Camera (nearly) still or only rotating: the rotation homography (IMU) or identity
+    // explains the static flow. Two views cannot tell "still camera, one mover" from "camera
+    // translating, background at infinity", and RANSAC then fits F to the mover too; so when
+    // the rotation-compensated flow of most features is sub-pixel, the homography test decides.
+    cv::Matx33d H_rot = cv::Matx33d::eye();
+    if (in.R_cur_prev) {
+      H_rot = to_matx(in.K * (*in.R_cur_prev) * in.K.inverse());
+    }
+    std::vector<double> ego_flow;
+    ego_flow.reserve(cand_idx.size());
+    for (std::size_t k = 0; k < cand_idx.size(); ++k) {
+      ego_flow.push_back(homography_residual(H_rot, cand_prev[k], cand_cur[k]));
+    }
+    out.degenerate_motion = !out.geometry_valid || median_of(ego_flow) < opt.still_flow_px;
+    H = H_rot;
+    if (out.degenerate_motion && !in.R_cur_prev) {
+      const cv::Mat Hm = cv::findHomography(cand_prev, cand_cur, cv::RANSAC, 1.0);
+      if (Hm.rows == 3) H = cv::Matx33d(Hm);
     }
   }
   out.motion_3d = have_3d;
@@ -672,6 +747,14 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
     if (out.labels[i] == FeatureLabel::kStatic) out.reasons[i] = LabelReason::kStaticInBox;
   }
   return out;
+}
+
+void use_half_resolution_flow(DynamicFilterOptions& opt) {
+  opt.lk_window = 9;
+  opt.lk_base_level = 1;
+  opt.lk_levels = opt.lk_backward_levels = 2;
+  opt.lk_iterations = 10;
+  opt.lk_epsilon_px = 0.1;
 }
 
 DynamicFilterResult combine_baselines(const DynamicFilterResult& short_baseline,

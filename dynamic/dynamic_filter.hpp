@@ -2,9 +2,11 @@
 // Which features are static: the seed system's hybrid rule, made stricter.
 //  * Every feature is followed back to the previous frame with pyramidal Lucas-Kanade flow
 //    (forward-backward checked).
-//  * The camera's own motion is fitted on features outside the detector's dynamic boxes:
-//    a RANSAC fundamental matrix, and a RANSAC homography (or the IMU-predicted rotation,
-//    K R K^-1, when given).
+//  * The camera's own motion is fitted on features outside the detector's dynamic boxes: with
+//    depth, by PnP-RANSAC of their 3D points against their flow (refined by Gauss-Newton, checked
+//    against the IMU's prediction), which also gives the epipolar geometry; without depth, a
+//    five-point RANSAC essential matrix; and a RANSAC homography (or the IMU-predicted rotation,
+//    K R K^-1, when given) for a camera that barely translates.
 //  * Inside a dynamic box a feature is kept only if its distance to its epipolar line is at
 //    most `epipolar_threshold_px` (3 px, the seed's rule) AND its box is not judged moving as a
 //    whole; boxes are judged one by one from their own features' flow, so two overlapping
@@ -69,16 +71,24 @@ struct DynamicFilterOptions {
   double foreground_band_m = 0.35;    // object thickness around the box core's depth
   double foreground_band_rel = 0.12;  // ... or this fraction of the depth, if larger
   // Lucas-Kanade flow: 15 px window, 3 levels above the image, at most 20 iterations stopping at
-  // 0.03 px steps (the seed's). A 9 px window, 10 iterations and 0.1 px cost about 3x less for
-  // the same removal on the bench scenes, but they change which features tracking keeps from the
-  // first frame on, and the team test's object map (tests/comm/team_test.cpp) loses the suitcase
-  // with them; they stay options until the object side tolerates that. With the IMU rotation the
-  // flow starts where the rotation puts the point. The backward check keeps the full pyramid:
-  // with fewer levels it starts at the feature and confirms wrong forward tracks it should reject.
+  // 0.03 px steps (the seed's). The flow may run on a coarser level instead (lk_base_level 1:
+  // the half-resolution image, whose 9 px window covers 18 full-resolution pixels): 9 px,
+  // 2 levels above level 1 and 10 iterations to 0.1 px cost a quarter (bench_dynamic, SeedLk
+  // against HalfResLk), recover a whole-image shift as closely (median 0.08 px against 0.07,
+  // tests/dynamic) and remove as many movers on the bench scenes (kestrel bench dynamic: within
+  // 0.7 pts, uav-zigzag's static kept +3 pts), but whole 60 s runs came out worse (cafe APE
+  // 0.010 -> 0.44 m, market 0.20 -> 0.73, uav-zigzag 0.31 -> 0.87). Those runs are on a knife
+  // edge where walkers fill half the view (cafe at 26 and 35 s), and the seed's flow with a
+  // finer stop (0.01 px) gave cafe 0.47 m too, so it is not the flow's precision alone; the
+  // half-resolution flow stays an option until those stretches are robust. With the IMU
+  // rotation the flow starts where the rotation puts the point. The backward check keeps the
+  // full pyramid: with fewer levels it starts at the feature and confirms wrong forward tracks
+  // it should reject.
   int lk_window = 15;
-  int lk_levels = 3;
+  int lk_base_level = 0;  // pyramid level the flow ends on (0: full resolution)
+  int lk_levels = 3;      // above lk_base_level
   int lk_iterations = 20;
-  double lk_epsilon_px = 0.03;
+  double lk_epsilon_px = 0.03;  // in the pixels of lk_base_level
   int lk_backward_levels = 3;
   // Start the flow where the IMU rotation puts each point. Off: over whole bench scenes it
   // coincided with most movers' flow being lost (uav-zigzag no-flow 7.8k -> 67k features).
@@ -188,6 +198,10 @@ struct DynamicFilterResult {
 
 DynamicFilterResult classify_features(const DynamicFilterInput& in,
                                       const DynamicFilterOptions& opt);
+
+// The flow on the half-resolution image (DynamicFilterOptions, lk_window): 9 px window on
+// level 1, 2 levels above it, 10 iterations to 0.1 px. A quarter of the seed flow's cost.
+void use_half_resolution_flow(DynamicFilterOptions& opt);
 
 // Multi-frame evidence. A slow mover, or one walking just ahead of the camera, shifts less than
 // the noise between two consecutive frames, but its displacement adds up over several: judged

@@ -148,6 +148,7 @@ RunSummary run_sequence(io::MeasurementSource& source, const RunOptions& options
   sys_opt.use_imu = mode_uses_imu(options.mode, source.calibration());
   if (!options.loop_closing) sys_opt.vocabulary.clear();
   sys_opt.tracker.triangulate = options.triangulate;
+  if (options.half_resolution_flow) dynamic::use_half_resolution_flow(sys_opt.dynamic);
   // With ground truth, the run's world is the truth's (nearest pose within 20 ms of the first
   // frame), so maps and objects can be scored against it; APE aligns anyway.
   if (auto gt = source.ground_truth(); gt && !gt->empty()) {

@@ -28,9 +28,10 @@ struct RunOptions {
   // A mode the dataset cannot give (stereo of an RGB-D sequence, IMU without one) is an error.
   std::string mode = "auto";
   bool loop_closing = true;
-  bool triangulate = false;  // TrackerOptions::triangulate
-  std::string out_dir;       // trajectory.txt, timing.json, summary.json
-  std::string models_dir;    // "" = find ../shared/models
+  bool triangulate = false;           // TrackerOptions::triangulate
+  bool half_resolution_flow = false;  // dynamic::use_half_resolution_flow
+  std::string out_dir;                // trajectory.txt, timing.json, summary.json
+  std::string models_dir;             // "" = find ../shared/models
   bool progress = true;
   std::string progress_label;    // printed before the bar when not empty
   std::size_t strip_frames = 4;  // frames kept (evenly spread) for the report's strip

@@ -7,11 +7,12 @@
 #include <vector>
 
 #include "core/camera.hpp"
+#include "core/reprojection.hpp"
 #include "core/se3.hpp"
 
 namespace kestrel::tracking {
 
-using Mat26 = Eigen::Matrix<double, 2, 6>;
+using kestrel::pose_residual;  // core/reprojection.hpp
 
 struct PoseObservation {
   Vec3 p_w;               // world point
@@ -41,12 +42,6 @@ struct PoseOptimizerResult {
   int inliers = 0;
   bool ok = false;  // finite pose with at least min_inliers inliers
 };
-
-// Residual r = project(T_c_w * p_w) - uv of the undistorted pinhole (distortion ignored) and,
-// when J is given, dr/d(delta) for the left perturbation T_c_w <- exp(delta) * T_c_w,
-// delta = [rho; phi]. False when the point is behind the camera.
-bool pose_residual(const PinholeCamera& camera, const SE3& T_c_w, const Vec3& p_w, const Vec2& uv,
-                   Vec2* r, Mat26* J = nullptr);
 
 PoseOptimizerResult optimize_pose(const PinholeCamera& camera,
                                   const std::vector<PoseObservation>& observations,

@@ -508,6 +508,48 @@ TEST(DynamicFilter, ReusesThePreviousFramesPyramid) {
   EXPECT_THROW(classify_features(in, opt), std::invalid_argument);
 }
 
+TEST(DynamicFilter, HalfResolutionFlowIsSubPixelAndReachesFastMotion) {
+  // The flow on the half-resolution image (lk_base_level 1, 9 px window, 2 levels above it, 10
+  // iterations to 0.1 px), against the default at full resolution. Whole-image shifts of a
+  // photo, small and large: the flow back to the previous frame recovers the shift to a small
+  // fraction of the 2.5-3 px thresholds at both.
+  const cv::Mat wall = photo("000004.jpg");
+  cv::Mat a;
+  cv::resize(wall, a, cv::Size(640, 480), 0, 0, cv::INTER_AREA);
+  std::vector<cv::Point2f> corners;
+  cv::goodFeaturesToTrack(a(cv::Rect(80, 60, 480, 360)), corners, 500, 0.005, 7);
+  ASSERT_GT(corners.size(), 200u);
+  for (const cv::Point2d shift : {cv::Point2d(1.3, -0.6), cv::Point2d(17.4, 9.7)}) {
+    // cur(x) = a(x - shift): a point at x in the current frame was at x - shift before.
+    const cv::Matx23d M(1, 0, shift.x, 0, 1, shift.y);
+    cv::Mat b;
+    cv::warpAffine(a, b, M, a.size(), cv::INTER_LINEAR, cv::BORDER_REFLECT_101);
+    const Image prev = to_image(a), cur = to_image(b);
+    DynamicFilterInput in;
+    in.prev_gray = &prev;
+    in.cur_gray = &cur;
+    in.K << kF, 0, kCx, 0, kF, kCy, 0, 0, 1;
+    for (const auto& c : corners) in.points.emplace_back(c.x + 80 + shift.x, c.y + 60 + shift.y);
+    DynamicFilterOptions full;
+    full.mode = FilterMode::kGeometryOnly;
+    DynamicFilterOptions half = full;
+    use_half_resolution_flow(half);
+    ASSERT_EQ(half.lk_base_level, 1);
+    for (const DynamicFilterOptions& o : {half, full}) {
+      const DynamicFilterResult r = classify_features(in, o);
+      std::vector<double> err;
+      for (std::size_t i = 0; i < in.points.size(); ++i) {
+        if (r.prev_points[i].x() < 0) continue;
+        err.push_back((r.prev_points[i] - (in.points[i] - Vec2(shift.x, shift.y))).norm());
+      }
+      EXPECT_GT(err.size(), in.points.size() * 95 / 100) << "base level " << o.lk_base_level;
+      std::sort(err.begin(), err.end());
+      EXPECT_LT(err[err.size() / 2], 0.1) << "base level " << o.lk_base_level;
+      EXPECT_LT(err[err.size() * 95 / 100], 0.3) << "base level " << o.lk_base_level;
+    }
+  }
+}
+
 TEST(DynamicFilter, RotationPriorFindsLargeRotationalFlow) {
   // A camera panning fast (about 40 px of flow): started where the IMU rotation puts each point,
   // LK tracks what the pyramid alone would have to search for, and the static scene stays static.
