@@ -52,11 +52,14 @@ std::vector<ImuSample> InertialPredictor::samples_between(Timestamp t0, Timestam
 void InertialPredictor::clear_fixes() {
   fixes_.clear();
   v_last_.reset();
+  velocity_fitted_at_.reset();
   bias_updated_at_ = 0;
 }
 
 void InertialPredictor::reanchor(Timestamp t, const SE3& T_w_b, const Vec3& v_w) {
+  const std::optional<Timestamp> fitted_at = velocity_fitted_at_;
   clear_fixes();
+  velocity_fitted_at_ = fitted_at;  // the carried velocity is as old as its last fit
   if (!T_w_b.is_finite() || !v_w.allFinite()) return;
   fixes_.push_back({t, T_w_b});
   att_R_ = T_w_b.so3();
@@ -225,6 +228,7 @@ void InertialPredictor::update_velocity() {
   if (v_k.allFinite()) {
     v_last_ = v_k;
     v_fix_ = k;
+    velocity_fitted_at_ = k.t;
   }
 }
 

@@ -94,6 +94,10 @@ class InertialPredictor {
   std::size_t fixes() const { return fixes_.size(); }
   // Velocity at the newest fix, once the window is long enough.
   const std::optional<Vec3>& velocity() const { return v_last_; }
+  // The stamp of the fix the velocity was last fitted at; reanchor() carries a velocity on
+  // without a fit, and one carried from reanchor to reanchor through a flaky track, never
+  // checked against vision again, drifts without bound.
+  const std::optional<Timestamp>& velocity_fitted_at() const { return velocity_fitted_at_; }
 
  private:
   struct Fix {
@@ -122,6 +126,7 @@ class InertialPredictor {
   Mat3 gyro_bias_cov_;
   Timestamp bias_updated_at_ = 0;  // stamp of the newest fix the biases have seen
   std::optional<Vec3> v_last_;
+  std::optional<Timestamp> velocity_fitted_at_;
   Fix v_fix_{0, SE3()};  // the fix v_last_ belongs to
   // Gyro-propagated attitude (attitude()); nothing before the first fix.
   std::optional<SO3> att_R_;

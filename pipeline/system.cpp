@@ -175,6 +175,7 @@ struct System::Impl {
   Timestamp imu_fed_until = 0;  // predictor has the IMU up to here
   std::size_t inertial_frames = 0;
   std::size_t bridged = 0;                   // lost tracks restarted at the IMU's pose
+  std::size_t restarted = 0;                 // ... at the last pose, without a prediction
   std::size_t keyframes_culled = 0;          // tracking thread: redundant keyframes erased
   std::size_t prior_conflicts = 0;           // frames whose vision disagreed with the IMU
   std::size_t relocalizations_rejected = 0;  // too far from the IMU's pose
@@ -594,10 +595,23 @@ struct System::Impl {
       // a walker filling the view right after a relocalization took over the track (uav-zigzag,
       // 3.7 s: 13 of 934 mover features removed, the tracker locked onto the walker).
       const bool relocalized = tr.state == tracking::TrackingState::kRelocalized;
-      if (relocalized && predicted_v_w && options.reanchor_on_relocalization) {
+      // Only a velocity fitted to vision lately is carried: reanchors chained through a flaky
+      // track (lost, relocalized, lost again) carried the IMU's own drift on and on
+      // (uav-zigzag seed 2: 900 m off after 20 s).
+      const auto fitted_at = predictor.velocity_fitted_at();
+      const bool velocity_recent =
+          fitted_at && frame.t - *fitted_at <= from_seconds(options.reanchor_velocity_max_age_s);
+      if (relocalized && predicted_v_w && options.reanchor_on_relocalization && velocity_recent) {
         predictor.reanchor(frame.t, T_w_b, *predicted_v_w);
-      } else if (relocalized || tr.state == tracking::TrackingState::kOk) {
-        if (relocalized) predictor.clear_fixes();
+      } else if ((relocalized || tr.state == tracking::TrackingState::kOk) &&
+                 !(tr.bridged && !tr.restarted)) {
+        // A bridge's pose is the IMU's own prediction: as a fix it would restart the dead
+        // reckoning clock (max_gap_s) with nothing seen, and a track that lost the new local map
+        // at once bridged again and again, the IMU alone carrying it (uav-zigzag seed 2: 900 m
+        // off after 20 s). The frames tracked after it are fixes again.
+        // A restart without a prediction jumps too: its pose is the last one, not where the body
+        // is.
+        if (relocalized || tr.restarted) predictor.clear_fixes();
         predictor.add_fix(frame.t, T_w_b);
         if (!gravity_known) estimate_gravity(frame.t, T_w_b);
       }
@@ -640,6 +654,7 @@ struct System::Impl {
       if (tr.state == tracking::TrackingState::kLost) ++lost;
       if (report.inertial_only) ++inertial_frames;
       if (tr.bridged) ++bridged;
+      if (tr.restarted) ++restarted;
       if (tr.prior_conflict) ++prior_conflicts;
       if (tr.relocalization_rejected) ++relocalizations_rejected;
       if (tr.state != tracking::TrackingState::kLost || report.inertial_only) {
@@ -905,6 +920,7 @@ void System::finish() {
   impl_->stats.set_counter("frames.lost", frames_lost());
   impl_->stats.set_counter("frames.inertial_only", impl_->inertial_frames);
   impl_->stats.set_counter("tracking.bridged", impl_->bridged);
+  impl_->stats.set_counter("tracking.restarted", impl_->restarted);
   impl_->stats.set_counter("tracking.imu_conflicts", impl_->prior_conflicts);
   impl_->stats.set_counter("tracking.relocalizations_rejected", impl_->relocalizations_rejected);
   // Threads joined: the map is the tracker's alone. What a long run's memory grows with.

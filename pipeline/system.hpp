@@ -78,6 +78,11 @@ struct SystemOptions {
   // A relocalization during a short loss restarts the IMU predictor from the relocalized pose
   // with the IMU's velocity (imu::InertialPredictor::reanchor); false: it waits for new fixes.
   bool reanchor_on_relocalization = true;
+  // ... but only with a velocity last fitted to vision fixes at most this long ago: through a
+  // flaky stretch (lost, relocalized, lost again) a velocity handed from reanchor to reanchor
+  // is the IMU's own integration, never checked again. 2 s let uav-zigzag (seed 2) drift 47 m
+  // away; 0.5 s keeps the 3.7 s relocalization under a walker of the default seed.
+  double reanchor_velocity_max_age_s = 0.5;
   double inertial_prior_rotation_sigma = 0.001;     // radians
   double inertial_prior_translation_sigma = 0.005;  // metres
   // Live (not sequential) runs wait at most this long for the IMU to pass a frame's stamp.

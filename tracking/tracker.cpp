@@ -249,6 +249,19 @@ TrackResult Tracker::track(FrameFeatures f, const std::optional<SE3>& predicted,
       return res;
     }
   }
+  if (!ok && relocalizing && !predicted && options_.restart_after_lost_frames > 0 &&
+      lost_frames_ + 1 >= options_.restart_after_lost_frames) {
+    const SE3 T_w_c(attitude_hint_ ? *attitude_hint_ : last_T_w_c_.so3(),
+                    last_T_w_c_.translation());
+    res.times.optimize_ms = optimize_ms;
+    const auto tk = Clock::now();
+    if (start_local_map(std::move(f), T_w_c, res)) {
+      res.bridged = res.restarted = true;
+      res.times.keyframe_ms = ms_since(tk);
+      res.times.total_ms = ms_since(t0);
+      return res;
+    }
+  }
   if (!ok) {
     if (relocalizing) {
       ++lost_frames_;

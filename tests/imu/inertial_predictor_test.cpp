@@ -123,7 +123,14 @@ TEST(InertialPredictor, ReanchorKeepsPredictingWithTheCarriedVelocity) {
   const auto carried = p.predict(from_seconds(t_reloc));
   ASSERT_TRUE(carried.has_value());
   const SE3 reloc(m.rotation(t_reloc), m.position(t_reloc));
+  // The velocity was fitted at the last fix; the reanchor carries it on without a new fit.
+  ASSERT_TRUE(p.velocity_fitted_at().has_value());
+  const Timestamp fitted_at = *p.velocity_fitted_at();
+  EXPECT_LE(fitted_at, from_seconds(2.0));
+  EXPECT_GT(fitted_at, from_seconds(2.0 - 2.0 / kFrameRate));
   p.reanchor(from_seconds(t_reloc), reloc, carried->v_w);
+  ASSERT_TRUE(p.velocity_fitted_at().has_value());
+  EXPECT_EQ(*p.velocity_fitted_at(), fitted_at) << "a reanchor is no fit";
   const double t_next = t_reloc + 1.0 / kFrameRate;
   const auto next = p.predict(from_seconds(t_next));
   ASSERT_TRUE(next.has_value());
@@ -134,6 +141,7 @@ TEST(InertialPredictor, ReanchorKeepsPredictingWithTheCarriedVelocity) {
   EXPECT_TRUE(p.predict(from_seconds(t_next + 1.0 / kFrameRate)).has_value());
   InertialPredictor q = run(m, 2.0, 0.005, 5e-4, 5, 5.0);
   q.clear_fixes();
+  EXPECT_FALSE(q.velocity_fitted_at().has_value());
   q.add_fix(from_seconds(t_reloc), reloc);
   EXPECT_FALSE(q.predict(from_seconds(t_next))) << "a single fix gives no velocity";
   InertialPredictor bad = run(m, 2.0, 0.005, 5e-4, 5, 5.0);

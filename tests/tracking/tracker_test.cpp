@@ -181,6 +181,49 @@ TEST(Tracker, RelocalizationMustAgreeWithTheAttitudeHint) {
   }
 }
 
+// Lost without any prediction, somewhere the map never saw (a real room after the synthetic
+// office): relocalization cannot succeed, so after restart_after_lost_frames the track restarts
+// at the last position, turned to the attitude hint, and goes on from there.
+TEST(Tracker, LongLostWithoutPredictionRestartsAtTheLastPose) {
+  const PinholeCamera cam = synthetic_camera();
+  const test::SyntheticScene scene = test::SyntheticScene::office();
+  const std::vector<SE3> path = test::smooth_path(60);
+  TrackerOptions opt;
+  opt.restart_after_lost_frames = 8;
+  opt.coast_frames = 3;
+  Tracker tracker(cam, opt);
+  for (int i = 0; i < 20; ++i) {
+    ASSERT_EQ(tracker.track(scene.render(cam, path[static_cast<std::size_t>(i)])).state,
+              TrackingState::kOk);
+  }
+  const SE3 last = tracker.last_pose();
+  const SO3 hint = last.so3() * SO3::exp(Vec3(0.0, 0.3, 0.0));
+  tracker.set_attitude_hint(hint);
+  const RgbdFrame elsewhere = tum_frame();
+  for (int i = 0; i < opt.restart_after_lost_frames; ++i) {
+    const TrackResult r = tracker.track(elsewhere);
+    ASSERT_EQ(r.state, TrackingState::kLost) << "frame " << i;
+    EXPECT_FALSE(r.restarted);
+  }
+  const TrackResult r = tracker.track(elsewhere);
+  ASSERT_EQ(r.state, TrackingState::kOk);
+  EXPECT_TRUE(r.restarted);
+  EXPECT_TRUE(r.bridged);
+  EXPECT_TRUE(r.new_keyframe);
+  EXPECT_LT((r.T_w_c.translation() - last.translation()).norm(), 1e-9);
+  EXPECT_LT((r.T_w_c.so3() * hint.inverse()).log().norm(), 1e-9);
+  const TrackResult next = tracker.track(elsewhere);
+  EXPECT_EQ(next.state, TrackingState::kOk);
+  EXPECT_FALSE(next.restarted);
+  EXPECT_LT((next.T_w_c.translation() - last.translation()).norm(), 0.01);
+
+  // Never restarts when told not to.
+  opt.restart_after_lost_frames = 0;
+  Tracker never(cam, opt);
+  for (int i = 0; i < 20; ++i) never.track(scene.render(cam, path[static_cast<std::size_t>(i)]));
+  for (int i = 0; i < 20; ++i) EXPECT_EQ(never.track(elsewhere).state, TrackingState::kLost);
+}
+
 // Back and forth over the same short path: with culling the map keeps fewer keyframes than
 // were inserted, every culled one is gone from it, and it stays consistent and accurate.
 TEST(Tracker, KeyframeCullingKeepsARevisitedMapSmallAndConsistent) {
