@@ -76,11 +76,12 @@ struct DynamicFilterOptions {
   // 2 levels above level 1 and 10 iterations to 0.1 px cost a quarter (bench_dynamic, SeedLk
   // against HalfResLk), recover a whole-image shift as closely (median 0.08 px against 0.07,
   // tests/dynamic) and remove as many movers on the bench scenes (kestrel bench dynamic: within
-  // 0.7 pts, uav-zigzag's static kept +3 pts), but whole 60 s runs came out worse (cafe APE
-  // 0.010 -> 0.44 m, market 0.20 -> 0.73, uav-zigzag 0.31 -> 0.87). Those runs are on a knife
-  // edge where walkers fill half the view (cafe at 26 and 35 s), and the seed's flow with a
-  // finer stop (0.01 px) gave cafe 0.47 m too, so it is not the flow's precision alone; the
-  // half-resolution flow stays an option until those stretches are robust. With the IMU
+  // 0.7 pts, uav-zigzag's static kept +3 pts). Over 60 s runs of two or three seeds per scene
+  // (APE, seed flow -> half resolution) it is a wash on market (0.20 -> 0.73, 0.27 -> 0.22)
+  // and uav-zigzag (0.31 -> 0.87, 1.74 -> 1.04, lost -> 0.53) but worse on cafe every time
+  // (0.010 -> 0.44, 0.10 -> 0.39 m), where walkers fill half the view at 26 and 35 s and it
+  // lets ~5% more of their features through there; the seed flow with a finer stop (0.01 px)
+  // gave cafe 0.47 m too, so these runs sit on a knife edge. It stays an option. With the IMU
   // rotation the flow starts where the rotation puts the point. The backward check keeps the
   // full pyramid: with fewer levels it starts at the feature and confirms wrong forward tracks
   // it should reject.
