@@ -123,11 +123,7 @@ int refine_motion(const std::vector<cv::Point3f>& obj, const std::vector<cv::Poi
     T = gauss_newton_motion(cam, obj_in, img_in, T);
   }
   if (!T.is_finite()) return 0;
-  const Mat3 Rr = T.rotation();
-  for (int r = 0; r < 3; ++r) {
-    for (int c = 0; c < 3; ++c) Rcv(r, c) = Rr(r, c);
-  }
-  cv::Rodrigues(cv::Mat(Rcv), rvec);
+  cv::Rodrigues(cv::Mat(to_matx(T.rotation())), rvec);
   tvec = (cv::Mat_<double>(3, 1) << T.translation().x(), T.translation().y(), T.translation().z());
   return explained(kPnpInlierPx, nullptr, nullptr);
 }
@@ -546,7 +542,7 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
       }
     }
   }
-  if (enough_background && !out.geometry_valid && !have_3d) {
+  if (enough_background && !have_3d) {
     // No depth to measure the motion with: the camera is calibrated, so fit the essential
     // matrix (5 DOF, five-point RANSAC) rather than F (7 DOF): with small baselines F bends to
     // fit a large mover as well.
