@@ -36,6 +36,7 @@ struct RunFlags {
   bool no_loop = false;
   bool triangulate = false;
   bool half_resolution_flow = false;
+  bool inertial_ba = false;
   bool realtime = false;
   double duration = -1.0;  // sim: scenes only
   bool no_movers = false;  // sim: scenes only
@@ -204,6 +205,8 @@ void setup_run(CLI::App& app) {
   cmd->add_flag("--no-loop", flags->no_loop, "no loop closing (odometry and local map only)");
   cmd->add_flag("--triangulate", flags->triangulate,
                 "also triangulate map points where depth has none (beyond its range, holes)");
+  cmd->add_flag("--inertial-ba", flags->inertial_ba,
+                "visual-inertial local BA: keyframes joined by the IMU's pre-integration");
   cmd->add_flag("--half-res-flow", flags->half_resolution_flow,
                 "the dynamic filter's flow on the half-resolution image: a quarter of the cost");
   cmd->add_flag("--realtime", flags->realtime,
@@ -250,6 +253,7 @@ void setup_run(CLI::App& app) {
     opt.loop_closing = !flags->no_loop;
     opt.triangulate = flags->triangulate;
     opt.half_resolution_flow = flags->half_resolution_flow;
+    opt.inertial_ba = flags->inertial_ba;
     const RunSummary summary = kestrel::pipeline::run_sequence(*source, opt);
     print_summary("run", summary);
     kestrel::report::ReportInput report;

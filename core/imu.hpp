@@ -20,6 +20,25 @@ struct ImuNoise {
   double rate_hz = 200.0;
 };
 
+// The outcome of pre-integrating the IMU between two stamps (imu::Preintegration), as plain
+// data that a keyframe can carry and an optimizer can turn into an inertial factor: the deltas
+// at the linearization biases, their bias Jacobians and the 9x9 covariance ordered
+// [δφ, δv, δp] (Forster et al. 2017).
+struct PreintegratedImu {
+  Mat3 delta_R = Mat3::Identity();
+  Vec3 delta_v = Vec3::Zero();
+  Vec3 delta_p = Vec3::Zero();
+  double dt = 0.0;  // seconds
+  Vec3 bias_gyro = Vec3::Zero();
+  Vec3 bias_acc = Vec3::Zero();
+  Mat3 dR_dbg = Mat3::Zero();
+  Mat3 dv_dbg = Mat3::Zero();
+  Mat3 dv_dba = Mat3::Zero();
+  Mat3 dp_dbg = Mat3::Zero();
+  Mat3 dp_dba = Mat3::Zero();
+  Eigen::Matrix<double, 9, 9> covariance = Eigen::Matrix<double, 9, 9>::Zero();
+};
+
 // Linear interpolation of two samples at time t (t0 <= t <= t1); how IMU data is brought to
 // frame stamps.
 ImuSample interpolate(const ImuSample& a, const ImuSample& b, Timestamp t);

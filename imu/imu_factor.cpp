@@ -20,18 +20,21 @@ Mat9 sqrt_information(const Mat9& cov) {
 }
 
 ImuFactor::ImuFactor(const Preintegration& pre, const Vec3& gravity)
-    : dR_(pre.delta_R()),
-      dv_(pre.delta_v()),
-      dp_(pre.delta_p()),
-      dt_(pre.dt()),
-      bias0_(pre.bias()),
-      J_R_bg_(pre.dR_dbg()),
-      J_v_bg_(pre.dv_dbg()),
-      J_v_ba_(pre.dv_dba()),
-      J_p_bg_(pre.dp_dbg()),
-      J_p_ba_(pre.dp_dba()),
+    : ImuFactor(pre.summary(), gravity) {}
+
+ImuFactor::ImuFactor(const PreintegratedImu& pre, const Vec3& gravity)
+    : dR_(SO3(pre.delta_R)),
+      dv_(pre.delta_v),
+      dp_(pre.delta_p),
+      dt_(pre.dt),
+      bias0_{pre.bias_gyro, pre.bias_acc},
+      J_R_bg_(pre.dR_dbg),
+      J_v_bg_(pre.dv_dbg),
+      J_v_ba_(pre.dv_dba),
+      J_p_bg_(pre.dp_dbg),
+      J_p_ba_(pre.dp_dba),
       gravity_(gravity),
-      sqrt_info_(sqrt_information(pre.covariance())) {}
+      sqrt_info_(sqrt_information(pre.covariance)) {}
 
 Vec9 ImuFactor::raw_residual(double const* const* parameters, TangentJacobians* J) const {
   const SE3 Ti = params_to_pose(parameters[0]);

@@ -19,6 +19,7 @@ Mat9 sqrt_information(const Mat9& cov);
 class ImuFactor final : public ceres::SizedCostFunction<9, 7, 3, 3, 3, 7, 3> {
  public:
   explicit ImuFactor(const Preintegration& pre, const Vec3& gravity = gravity_vector());
+  explicit ImuFactor(const PreintegratedImu& pre, const Vec3& gravity = gravity_vector());
 
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override;

@@ -87,6 +87,7 @@ class InertialPredictor {
 
   // World gravity, when the world is not the z-up one the options assume.
   void set_gravity(const Vec3& g) { options_.gravity = g; }
+  const Vec3& gravity() const { return options_.gravity; }
 
   const ImuBias& bias() const { return bias_; }
   // One sigma of the gyro bias estimate (rad/s, the largest axis).

@@ -130,6 +130,23 @@ void Preintegration::propagate(const ImuSample& a, const ImuSample& b) {
   dt_ += h;
 }
 
+PreintegratedImu Preintegration::summary() const {
+  PreintegratedImu s;
+  s.delta_R = dR_.matrix();
+  s.delta_v = dv_;
+  s.delta_p = dp_;
+  s.dt = dt_;
+  s.bias_gyro = bias_.gyro;
+  s.bias_acc = bias_.acc;
+  s.dR_dbg = J_R_bg_;
+  s.dv_dbg = J_v_bg_;
+  s.dv_dba = J_v_ba_;
+  s.dp_dbg = J_p_bg_;
+  s.dp_dba = J_p_ba_;
+  s.covariance = cov_;
+  return s;
+}
+
 SO3 Preintegration::corrected_delta_R(const Vec3& bg) const {
   return dR_ * SO3::exp(J_R_bg_ * (bg - bias_.gyro));
 }

@@ -39,6 +39,9 @@ class Preintegration {
   // for the first-order correction).
   void reintegrate(const ImuBias& new_bias);
 
+  // Everything an inertial factor needs, without the stored samples.
+  PreintegratedImu summary() const;
+
   // Deltas at the linearization bias.
   const SO3& delta_R() const { return dR_; }
   const Vec3& delta_v() const { return dv_; }

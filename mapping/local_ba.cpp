@@ -232,6 +232,22 @@ std::optional<LocalBaProblem> gather_local_ba(const Map& map, KeyframeId current
       pb.rotation_links.push_back({from, k, kf->gyro->R_c_from, kf->gyro->sigma_rad});
     }
   }
+  if (options.inertial) {
+    for (KeyframeId k : local) {
+      const Keyframe* kf = map.keyframe(k);
+      if (!kf->gyro || !kf->gyro->imu || !kf->v_w) continue;
+      const Keyframe* from = map.keyframe(kf->gyro->from);
+      if (!from || !from->v_w || !(kf->gyro->imu->dt > 0.0) ||
+          kf->gyro->imu->dt > options.inertial_max_dt_s) {
+        continue;
+      }
+      if (!local.count(from->id)) fixed.insert(from->id);
+      pb.inertial.push_back(
+          {from->id, k, *kf->gyro->imu, kf->gyro->gravity, kf->gyro->T_body_camera});
+      pb.v_w[k] = *kf->v_w;
+      pb.v_w[from->id] = *from->v_w;
+    }
+  }
   for (KeyframeId k : local) pb.T_c_w[k] = map.keyframe(k)->T_c_w();
   for (KeyframeId k : fixed) pb.T_c_w[k] = map.keyframe(k)->T_c_w();
   pb.fixed = std::move(fixed);
@@ -239,7 +255,7 @@ std::optional<LocalBaProblem> gather_local_ba(const Map& map, KeyframeId current
 }
 
 LocalBaSolution solve_local_ba(const LocalBaProblem& pb, const PinholeCamera& camera,
-                               const LocalBaOptions& options) {
+                               const LocalBaOptions& options, const ExtraTerms& extra_terms) {
   LocalBaSolution sol;
   sol.current = pb.current;
   const auto& obs = pb.observations;
@@ -287,6 +303,7 @@ LocalBaSolution solve_local_ba(const LocalBaProblem& pb, const PinholeCamera& ca
       problem.AddResidualBlock(new RotationLinkCost(l.R_to_from, l.sigma_rad),
                                new ceres::HuberLoss(3.0), poses[l.from].data(), poses[l.to].data());
     }
+    if (extra_terms) extra_terms(problem, poses);
     for (auto& [k, xi] : poses) {
       if (!problem.HasParameterBlock(xi.data())) continue;
       problem.SetManifold(xi.data(), &manifold);
@@ -342,6 +359,9 @@ LocalBaSolution solve_local_ba(const LocalBaProblem& pb, const PinholeCamera& ca
 int apply_local_ba(Map& map, const LocalBaSolution& sol) {
   for (const auto& [k, T_c_w] : sol.T_c_w) {
     if (Keyframe* kf = map.keyframe(k)) kf->T_w_c = T_c_w.inverse();
+  }
+  for (const auto& [k, v] : sol.v_w) {
+    if (Keyframe* kf = map.keyframe(k)) kf->v_w = v;
   }
   for (const auto& [p, x] : sol.points) {
     if (auto* mp = map.point(p)) mp->p_w = x;

@@ -5,6 +5,7 @@
 // (local_bundle_adjustment) or in three steps so that the solve can run on another thread:
 // gather_local_ba copies what it needs out of the map (the map's owner), solve_local_ba works
 // on that copy alone, apply_local_ba writes back what still exists (the map's owner again).
+#include <functional>
 #include <map>
 #include <optional>
 #include <set>
@@ -13,6 +14,10 @@
 #include "core/camera.hpp"
 #include "core/se3.hpp"
 #include "mapping/map.hpp"
+
+namespace ceres {
+class Problem;
+}
 
 namespace kestrel::mapping {
 
@@ -30,6 +35,11 @@ struct LocalBaOptions {
   // Keyframes' gyro links (Keyframe::gyro) as rotation factors between them: off, the map is
   // vision's alone.
   bool gyro_links = true;
+  // Keyframes' pre-integrations (GyroLink::imu) and velocities (Keyframe::v_w) are gathered as
+  // inertial edges; imu::solve_inertial_local_ba turns them into factors (the visual-only
+  // solve_local_ba leaves them out).
+  bool inertial = false;
+  double inertial_max_dt_s = 3.0;  // longer pre-integrations are left out
 };
 
 struct LocalBaResult {
@@ -78,6 +88,14 @@ struct LocalBaProblem {
     double sigma_rad;
   };
   std::vector<RotationLink> rotation_links;  // at least one end optimized
+  struct InertialEdge {
+    KeyframeId from, to;
+    PreintegratedImu imu;
+    Vec3 gravity;
+    SE3 T_body_camera;
+  };
+  std::vector<InertialEdge> inertial;  // at least one end optimized (LocalBaOptions::inertial)
+  std::map<KeyframeId, Vec3> v_w;      // body velocities of the keyframes the edges join
 };
 
 struct LocalBaSolution {
@@ -85,14 +103,19 @@ struct LocalBaSolution {
   std::map<KeyframeId, SE3> T_c_w;  // the optimized keyframes only
   std::map<PointId, Vec3> points;
   std::vector<std::pair<PointId, KeyframeId>> outliers;  // observations to drop
+  std::map<KeyframeId, Vec3> v_w;                        // optimized keyframes' velocities
   LocalBaResult result;
 };
 
 // Nothing when the keyframe is gone or the window has nothing to optimize.
 std::optional<LocalBaProblem> gather_local_ba(const Map& map, KeyframeId current,
                                               const LocalBaOptions& options = {});
+// More residuals for each stage's problem (imu/'s inertial factors): `poses` holds every
+// keyframe's block (log T_c_w, left-perturbed; fixed ones held constant by the solver).
+using ExtraTerms = std::function<void(ceres::Problem& problem, std::map<KeyframeId, Vec6>& poses)>;
 LocalBaSolution solve_local_ba(const LocalBaProblem& problem, const PinholeCamera& camera,
-                               const LocalBaOptions& options = {});
+                               const LocalBaOptions& options = {},
+                               const ExtraTerms& extra_terms = {});
 // Keyframes and points culled since the gather are skipped; returns the observations dropped.
 int apply_local_ba(Map& map, const LocalBaSolution& solution);
 

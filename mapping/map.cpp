@@ -264,6 +264,7 @@ void Map::erase_keyframe(KeyframeId kid) {
     kf.gyro->from = through->from;
     kf.gyro->dt_s += through->dt_s;
     kf.gyro->sigma_rad = std::hypot(kf.gyro->sigma_rad, through->sigma_rad);
+    kf.gyro->imu.reset();
   }
   for (PointId pid : seen) {
     MapPoint* p = point(pid);

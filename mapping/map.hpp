@@ -7,6 +7,7 @@
 #include <unordered_map>
 #include <vector>
 
+#include "core/imu.hpp"
 #include "core/se3.hpp"
 #include "core/timestamp.hpp"
 #include "tracking/frame_features.hpp"
@@ -48,6 +49,14 @@ struct GyroLink {
   Mat3 R_c_from = Mat3::Identity();
   double dt_s = 0.0;
   double sigma_rad = 0.0;
+  // The whole pre-integration over the same interval (velocity and position as well), with
+  // what it needs to become an inertial factor in local BA: the world's gravity and the body
+  // (IMU) to camera transform. Nothing where the IMU was not integrated, or once a culled
+  // keyframe's links are composed (pre-integrations do not compose through their bias
+  // Jacobians).
+  std::optional<PreintegratedImu> imu;
+  Vec3 gravity = Vec3(0.0, 0.0, -9.81);
+  SE3 T_body_camera;
 };
 
 struct Keyframe {
@@ -58,6 +67,9 @@ struct Keyframe {
   std::vector<PointId> point_of_feature;  // kNoPoint where a feature has no map point
   std::map<KeyframeId, int> connections;  // covisibility: shared map points per keyframe
   std::optional<GyroLink> gyro;           // to the keyframe before it, when there is an IMU
+  // Body (IMU) velocity in the world when the keyframe was taken: the IMU's prediction, then
+  // visual-inertial local BA's estimate. Session-only, like the gyro link.
+  std::optional<Vec3> v_w;
 
   SE3 T_c_w() const { return T_w_c.inverse(); }
 };

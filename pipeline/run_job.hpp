@@ -30,6 +30,7 @@ struct RunOptions {
   bool loop_closing = true;
   bool triangulate = false;           // TrackerOptions::triangulate
   bool half_resolution_flow = false;  // dynamic::use_half_resolution_flow
+  bool inertial_ba = false;           // SystemOptions::inertial_ba
   std::string out_dir;                // trajectory.txt, timing.json, summary.json
   std::string models_dir;             // "" = find ../shared/models
   bool progress = true;

@@ -12,6 +12,8 @@
 #include <thread>
 
 #include "detect/dynamic_classes.hpp"
+#include "imu/inertial_local_ba.hpp"
+#include "imu/preintegration.hpp"
 #include "io/cv_image.hpp"
 #include "loop/loop_detector.hpp"
 #include "loop/pose_graph.hpp"
@@ -159,6 +161,7 @@ struct System::Impl {
   mapping::KeyframeId kf_gyro_from = -1;
   SO3 kf_gyro_R;
   double kf_gyro_dt = 0.0;
+  std::optional<imu::Preintegration> kf_pre;  // the same interval, fully pre-integrated
   Timestamp gyro_t = 0;
   std::optional<SE3> prev_T_w_c;      // the previous frame's camera pose: tracked, or the IMU's
   std::optional<Vec3> predicted_v_w;  // the body velocity of this frame's IMU prediction
@@ -191,6 +194,7 @@ struct System::Impl {
                 [&] {
                   tracking::TrackerOptions t = options.tracker;
                   if (options.async_local_ba) t.inline_mapping = false;
+                  t.ba.inertial = options.inertial_ba && options.gyro_links;
                   if (!options.inertial_prior) {
                     t.prior_in_optimization = false;
                     t.prior_gate_chi2 = options.inertial_gate_chi2;
@@ -299,6 +303,11 @@ struct System::Impl {
         std::lock_guard<std::mutex> lock(imu_mutex);
         d = gyro_delta(imu, gyro_t, t, predictor.bias().gyro);
       }
+      if (d && kf_pre) {
+        std::lock_guard<std::mutex> lock(imu_mutex);
+        const std::vector<ImuSample> s = imu.between(gyro_t, t);
+        if (s.size() < 2 || !kf_pre->integrate(s, gyro_t, t)) kf_pre.reset();
+      }
       if (d) {
         kf_gyro_R = kf_gyro_R * *d;
         kf_gyro_dt += to_seconds(t - gyro_t);
@@ -322,6 +331,11 @@ struct System::Impl {
     const double rel = options.gyro_link_relative_sigma * kf_gyro_R.angle();
     link.sigma_rad = std::sqrt(white + bias * bias + rel * rel +
                                options.gyro_link_sigma_floor * options.gyro_link_sigma_floor);
+    if (kf_pre && gravity_known && options.inertial_ba) {
+      link.imu = kf_pre->summary();
+      link.gravity = predictor.gravity();
+      link.T_body_camera = calib.T_body_camera;
+    }
     tracker.set_gyro_link(link);
   }
 
@@ -365,7 +379,8 @@ struct System::Impl {
       ba_busy = true;
       lock.unlock();
       const auto t0 = Clock::now();
-      mapping::LocalBaSolution sol = mapping::solve_local_ba(pb, calib.camera, options.tracker.ba);
+      mapping::LocalBaSolution sol =
+          imu::solve_inertial_local_ba(pb, calib.camera, tracker.options().ba);
       stats.record("mapping.local_ba", ms_since(t0));
       lock.lock();
       ba_results.push_back(std::move(sol));
@@ -574,6 +589,7 @@ struct System::Impl {
     }
     tracker.set_attitude_hint(attitude);
     if (inertial) link_gyro(frame.t);
+    tracker.set_body_velocity(options.inertial_ba ? predicted_v_w : std::nullopt);
     t0 = Clock::now();
     const tracking::TrackResult tr =
         prior && (options.inertial_prior || options.inertial_gate_chi2 > 0.0)
@@ -584,6 +600,7 @@ struct System::Impl {
       kf_gyro_from = tr.keyframe_id;
       kf_gyro_R = SO3();
       kf_gyro_dt = 0.0;
+      if (options.inertial_ba) kf_pre.emplace(predictor.bias(), calib.imu);
     }
     const mapping::KeyframeId local_ba_requested = request_local_ba();
     if (inertial) {

@@ -328,6 +328,7 @@ bool Tracker::start_local_map(FrameFeatures&& f, const SE3& T_w_c, TrackResult& 
   if (with_depth < options_.min_init_points) return false;
   const KeyframeId kid = map_.add_keyframe(f.t, T_w_c, std::move(f));
   if (gyro_link_ && map_.keyframe(gyro_link_->from)) map_.keyframe(kid)->gyro = gyro_link_;
+  map_.keyframe(kid)->v_w = body_velocity_;
   map_.create_points_from_depth(kid, std::numeric_limits<int>::max(), options_.features.max_depth);
   reference_kf_ = last_kf_ = kid;
   frames_since_keyframe_ = 0;
@@ -581,6 +582,7 @@ KeyframeId Tracker::insert_keyframe(FrameFeatures&& f, const Matched& m, const S
   const double close_depth = close_depth_for(f, options_.close_depth);
   const KeyframeId kid = map_.add_keyframe(f.t, T_w_c, std::move(f));
   if (gyro_link_ && map_.keyframe(gyro_link_->from)) map_.keyframe(kid)->gyro = gyro_link_;
+  map_.keyframe(kid)->v_w = body_velocity_;
   for (std::size_t i = 0; i < m.point.size(); ++i) {
     if (m.point[i] != kNoPoint && map_.point(m.point[i])) {
       map_.add_observation(m.point[i], kid, static_cast<int>(i));

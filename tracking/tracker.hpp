@@ -158,6 +158,9 @@ class Tracker {
   // The gyro's rotation from keyframe link->from to the next frame to be tracked: the keyframe
   // that frame may become carries it (mapping::Keyframe::gyro). Nothing: no link.
   void set_gyro_link(std::optional<mapping::GyroLink> link) { gyro_link_ = std::move(link); }
+  // The IMU's body velocity at the next frame to be tracked; should it become a keyframe, the
+  // keyframe starts with it (mapping::Keyframe::v_w). Nothing: no velocity.
+  void set_body_velocity(std::optional<Vec3> v_w) { body_velocity_ = std::move(v_w); }
   TrackingState state() const { return state_; }
   const SE3& last_pose() const { return last_T_w_c_; }
   void reset();
@@ -207,6 +210,7 @@ class Tracker {
   std::optional<SE3> coast_velocity_;  // velocity_ when the track was lost
   std::optional<SO3> attitude_hint_;   // set_attitude_hint()
   std::optional<mapping::GyroLink> gyro_link_;
+  std::optional<Vec3> body_velocity_;
   int lost_frames_ = 0;  // frames since the track was lost
   mapping::KeyframeId reference_kf_ = -1;
   mapping::KeyframeId last_kf_ = -1;

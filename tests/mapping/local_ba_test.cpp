@@ -259,11 +259,22 @@ TEST(Map, ErasingAKeyframeCarriesItsGyroLinkThrough) {
   Map map;
   const SO3 a = SO3::exp(Vec3(0.1, 0, 0)), b = SO3::exp(Vec3(0, 0.2, 0));
   for (int k = 0; k < 3; ++k) map.add_keyframe(k, SE3(), FrameFeatures{});
-  map.keyframe(1)->gyro = GyroLink{0, a.matrix(), 0.5, 3e-4};
-  map.keyframe(2)->gyro = GyroLink{1, b.matrix(), 0.25, 4e-4};
+  auto link = [](KeyframeId from, const SO3& R, double dt, double sigma) {
+    GyroLink l;
+    l.from = from;
+    l.R_c_from = R.matrix();
+    l.dt_s = dt;
+    l.sigma_rad = sigma;
+    return l;
+  };
+  map.keyframe(1)->gyro = link(0, a, 0.5, 3e-4);
+  map.keyframe(2)->gyro = link(1, b, 0.25, 4e-4);
+  map.keyframe(2)->gyro->imu = PreintegratedImu{};
   map.erase_keyframe(1);
   ASSERT_TRUE(map.keyframe(2)->gyro);
   const GyroLink& l = *map.keyframe(2)->gyro;
+  // A pre-integration does not compose through another keyframe's: the inertial edge goes.
+  EXPECT_FALSE(l.imu);
   EXPECT_EQ(l.from, 0);
   EXPECT_LT((SO3(l.R_c_from).inverse() * b * a).angle(), 1e-12);
   EXPECT_DOUBLE_EQ(l.dt_s, 0.75);
