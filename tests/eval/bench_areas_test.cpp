@@ -2,9 +2,11 @@
 // table prints and its JSON holds the figures the issues name, each a finite number.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
+#include <iterator>
 #include <nlohmann/json.hpp>
 #include <string>
 
@@ -129,6 +131,38 @@ TEST(BenchAreas, TinyRunOfEveryAreaWritesFiniteFigures) {
   for (const char* table : {"## Dynamic features", "## Evaluation", "## IMU", "## Objects",
                             "## Telemetry", "## Video", "## Memory"})
     EXPECT_NE(printed.find(table), std::string::npos) << table;
+}
+
+// --seeds: each accuracy scene is drawn again with the next seeds, and a table gives each
+// scene's median and range over the draws.
+TEST(BenchAreas, AccuracyOverSeveralDrawsOfTheWorld) {
+  const fs::path dir = kestrel::test::temp_dir("bench_seeds");
+  const fs::path out = dir / "bench.json", log = dir / "log.txt";
+  const std::string cmd = (kestrel::test::build_dir() / "kestrel").string() +
+                          " bench --tiny --seeds 2 --only accuracy --json " + out.string() + " > " +
+                          log.string() + " 2>&1";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+  std::ifstream in(out);
+  const json j = json::parse(in);
+  ASSERT_EQ(j["scenes"].size(), 2u);
+  const long long s0 = j["scenes"][0]["seed"], s1 = j["scenes"][1]["seed"];
+  EXPECT_EQ(s1, s0 + 1);
+  ASSERT_EQ(j["runs"].size(), 4u);  // two modes on each draw
+  ASSERT_EQ(j["accuracy_over_seeds"].size(), 2u);
+  for (const json& g : j["accuracy_over_seeds"]) {
+    ASSERT_EQ(g["ape_rmse_m"].size(), 2u) << g.dump();
+    const double a = g["ape_rmse_m"][0], b = g["ape_rmse_m"][1];
+    // Two draws are two worlds: not the same run twice.
+    EXPECT_NE(a, b);
+    EXPECT_DOUBLE_EQ(g["ape_rmse_min_m"].get<double>(), std::min(a, b));
+    EXPECT_DOUBLE_EQ(g["ape_rmse_max_m"].get<double>(), std::max(a, b));
+    EXPECT_NEAR(g["ape_rmse_median_m"].get<double>(), 0.5 * (a + b), 1e-12);
+  }
+  std::ifstream lin(log);
+  const std::string printed((std::istreambuf_iterator<char>(lin)),
+                            std::istreambuf_iterator<char>());
+  EXPECT_NE(printed.find("## Accuracy over 2 draws"), std::string::npos);
+  EXPECT_NE(printed.find("cafe seed " + std::to_string(s1)), std::string::npos);
 }
 
 TEST(BenchAreas, UnknownAreaIsAnError) {
