@@ -299,15 +299,14 @@ struct System::Impl {
   void link_gyro(Timestamp t) {
     if (kf_gyro_from >= 0 && gyro_t > 0 && t > gyro_t) {
       std::optional<SO3> d;
+      std::vector<ImuSample> s;
       {
         std::lock_guard<std::mutex> lock(imu_mutex);
         d = gyro_delta(imu, gyro_t, t, predictor.bias().gyro);
+        if (d && kf_pre) s = imu.between(gyro_t, t);
       }
-      if (d && kf_pre) {
-        std::lock_guard<std::mutex> lock(imu_mutex);
-        const std::vector<ImuSample> s = imu.between(gyro_t, t);
-        if (s.size() < 2 || !kf_pre->integrate(s, gyro_t, t)) kf_pre.reset();
-      }
+      // A pre-integration with a hole in it is no measurement: the keyframe gets none.
+      if (kf_pre && (s.size() < 2 || !kf_pre->integrate(s, gyro_t, t))) kf_pre.reset();
       if (d) {
         kf_gyro_R = kf_gyro_R * *d;
         kf_gyro_dt += to_seconds(t - gyro_t);
