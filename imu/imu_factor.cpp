@@ -141,4 +141,13 @@ bool BiasWalkFactor::Evaluate(double const* const* parameters, double* residuals
   return true;
 }
 
+bool Vec3PriorFactor::Evaluate(double const* const* parameters, double* residuals,
+                               double** jacobians) const {
+  Eigen::Map<Vec3>{residuals} = w_ * (Eigen::Map<const Vec3>(parameters[0]) - mean_);
+  if (jacobians && jacobians[0]) {
+    Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>{jacobians[0]} = w_ * Mat3::Identity();
+  }
+  return true;
+}
+
 }  // namespace kestrel::imu

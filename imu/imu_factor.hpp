@@ -55,4 +55,17 @@ class BiasWalkFactor final : public ceres::SizedCostFunction<6, 3, 3, 3, 3> {
   double w_gyro_, w_acc_;
 };
 
+// A Gaussian prior on a 3-vector block (a bias held near an earlier estimate): r = (x - mean) /
+// sigma.
+class Vec3PriorFactor final : public ceres::SizedCostFunction<3, 3> {
+ public:
+  Vec3PriorFactor(const Vec3& mean, double sigma) : mean_(mean), w_(1.0 / sigma) {}
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override;
+
+ private:
+  Vec3 mean_;
+  double w_;
+};
+
 }  // namespace kestrel::imu

@@ -42,23 +42,6 @@ bool CameraImuFactor::Evaluate(double const* const* params, double* residuals,
 
 namespace {
 
-class BiasPriorFactor final : public ceres::SizedCostFunction<3, 3> {
- public:
-  BiasPriorFactor(const Vec3& mean, double sigma) : mean_(mean), w_(1.0 / sigma) {}
-  bool Evaluate(double const* const* params, double* residuals, double** jacobians) const override {
-    Eigen::Map<Vec3>{residuals} = w_ * (Eigen::Map<const Vec3>(params[0]) - mean_);
-    if (jacobians && jacobians[0]) {
-      Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>{jacobians[0]} =
-          w_ * Mat3::Identity();
-    }
-    return true;
-  }
-
- private:
-  Vec3 mean_;
-  double w_;
-};
-
 PreintegratedImu with_floor(PreintegratedImu pre, const InertialBaOptions& o) {
   const double rel = o.rotation_relative * SO3(pre.delta_R).angle();
   const double r2 = o.rotation_floor_rad * o.rotation_floor_rad + rel * rel;
@@ -92,8 +75,8 @@ mapping::LocalBaSolution solve_inertial_local_ba(const mapping::LocalBaProblem& 
           v_w[e.to].data());
     }
     if (problem.HasParameterBlock(bg.data())) {
-      problem.AddResidualBlock(new BiasPriorFactor(bg0, io.gyro_bias_sigma), nullptr, bg.data());
-      problem.AddResidualBlock(new BiasPriorFactor(ba0, io.acc_bias_sigma), nullptr, ba.data());
+      problem.AddResidualBlock(new Vec3PriorFactor(bg0, io.gyro_bias_sigma), nullptr, bg.data());
+      problem.AddResidualBlock(new Vec3PriorFactor(ba0, io.acc_bias_sigma), nullptr, ba.data());
     }
   };
   mapping::LocalBaSolution sol = mapping::solve_local_ba(pb, camera, options, terms);

@@ -1,9 +1,9 @@
 #pragma once
-// Visual-inertial local bundle adjustment (ORB-SLAM3's local inertial BA, with the biases held):
-// mapping::solve_local_ba's reprojection and depth terms plus, between consecutive keyframes of
-// the window, the IMU's pre-integration (imu::ImuFactor) on the keyframes' body poses and
-// velocities. Vision alone lets a keyframe taken from a few dozen look-alike matches (a dark
-// wall, a crowd) sit centimetres off; the accelerometer says how far the body can have moved
+// Visual-inertial local bundle adjustment (ORB-SLAM3's local inertial BA, with one bias pair for
+// the window): mapping::solve_local_ba's reprojection and depth terms plus, between consecutive
+// keyframes of the window, the IMU's pre-integration (imu::ImuFactor) on the keyframes' body
+// poses and velocities. Vision alone lets a keyframe taken from a few dozen look-alike matches (a
+// dark wall, a crowd) sit centimetres off; the accelerometer says how far the body can have moved
 // since the keyframe before it, and at what speed, independently of anything seen.
 #include <ceres/sized_cost_function.h>
 

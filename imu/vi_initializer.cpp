@@ -159,17 +159,6 @@ struct AlignmentCost {
   }
 };
 
-// Gaussian prior on a 3-vector.
-struct PriorCost {
-  Vec3 mean;
-  double weight;
-  template <typename T>
-  bool operator()(const T* x, T* out) const {
-    for (int k = 0; k < 3; ++k) out[k] = T(weight) * (x[k] - T(mean(k)));
-    return true;
-  }
-};
-
 }  // namespace
 
 const char* to_string(ViInitStatus status) {
@@ -269,12 +258,10 @@ ViInitResult visual_inertial_initialize(std::span<const SE3> T_v_c, const SE3& T
           new ceres::AutoDiffCostFunction<AlignmentCost, 9, 2, 1, 3, 3, 3, 3>(cost), nullptr, tilt,
           &log_scale, vel[k].data(), vel[k + 1].data(), bg, ba);
     }
-    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<PriorCost, 3, 3>(
-                                 new PriorCost{bias.acc, 1.0 / options.acc_bias_prior_sigma}),
-                             nullptr, ba);
-    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<PriorCost, 3, 3>(
-                                 new PriorCost{bias.gyro, 1.0 / options.gyro_bias_prior_sigma}),
-                             nullptr, bg);
+    problem.AddResidualBlock(new Vec3PriorFactor(bias.acc, options.acc_bias_prior_sigma), nullptr,
+                             ba);
+    problem.AddResidualBlock(new Vec3PriorFactor(bias.gyro, options.gyro_bias_prior_sigma), nullptr,
+                             bg);
     if (!options.estimate_scale) problem.SetParameterBlockConstant(&log_scale);
 
     ceres::Solver::Options solver;

@@ -327,8 +327,7 @@ bool Tracker::start_local_map(FrameFeatures&& f, const SE3& T_w_c, TrackResult& 
   }
   if (with_depth < options_.min_init_points) return false;
   const KeyframeId kid = map_.add_keyframe(f.t, T_w_c, std::move(f));
-  if (gyro_link_ && map_.keyframe(gyro_link_->from)) map_.keyframe(kid)->gyro = gyro_link_;
-  map_.keyframe(kid)->v_w = body_velocity_;
+  attach_imu(kid);
   map_.create_points_from_depth(kid, std::numeric_limits<int>::max(), options_.features.max_depth);
   reference_kf_ = last_kf_ = kid;
   frames_since_keyframe_ = 0;
@@ -404,6 +403,12 @@ std::vector<PointId> Tracker::relocalization_candidates(const FrameFeatures& f) 
   pts.erase(std::unique(pts.begin(), pts.end()), pts.end());
   if (pts.size() > cap) pts.resize(cap);
   return pts;
+}
+
+void Tracker::attach_imu(KeyframeId kid) {
+  mapping::Keyframe* kf = map_.keyframe(kid);
+  if (gyro_link_ && map_.keyframe(gyro_link_->from)) kf->gyro = gyro_link_;
+  kf->v_w = body_velocity_;
 }
 
 std::vector<PointId> Tracker::local_points() const {
@@ -581,8 +586,7 @@ bool Tracker::need_keyframe(const FrameFeatures& f, const Matched& m, int inlier
 KeyframeId Tracker::insert_keyframe(FrameFeatures&& f, const Matched& m, const SE3& T_w_c) {
   const double close_depth = close_depth_for(f, options_.close_depth);
   const KeyframeId kid = map_.add_keyframe(f.t, T_w_c, std::move(f));
-  if (gyro_link_ && map_.keyframe(gyro_link_->from)) map_.keyframe(kid)->gyro = gyro_link_;
-  map_.keyframe(kid)->v_w = body_velocity_;
+  attach_imu(kid);
   for (std::size_t i = 0; i < m.point.size(); ++i) {
     if (m.point[i] != kNoPoint && map_.point(m.point[i])) {
       map_.add_observation(m.point[i], kid, static_cast<int>(i));

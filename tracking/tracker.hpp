@@ -118,8 +118,8 @@ struct TrackResult {
   int matches = 0;
   bool new_keyframe = false;
   bool bridged = false;  // lost, restarted at the predicted pose (TrackerOptions)
-  bool restarted =
-      false;  // lost, no prediction, restarted at the last pose: a jump (TrackerOptions)
+  // Lost, no prediction, restarted at the last pose: a jump (TrackerOptions).
+  bool restarted = false;
   bool prior_conflict = false;           // vision disagreed with the MotionPrior (prior_gate_chi2)
   double prior_chi2 = 0.0;               // the final pose's disagreement with the MotionPrior
   bool relocalization_rejected = false;  // too far from the prediction
@@ -196,6 +196,8 @@ class Tracker {
   TrackResult initialize(FrameFeatures&& f, const std::optional<SE3>& predicted);
   // A keyframe at T_w_c seeding points from its depth; false when it has too few.
   bool start_local_map(FrameFeatures&& f, const SE3& T_w_c, TrackResult& res);
+  // Gives a new keyframe what the IMU said of it (set_gyro_link, set_body_velocity).
+  void attach_imu(mapping::KeyframeId kid);
 
   PinholeCamera camera_;
   TrackerOptions options_;
