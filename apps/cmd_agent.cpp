@@ -22,6 +22,7 @@ struct AgentFlags {
   std::string password;
   std::string source;
   double duration = 0.0;
+  double linger = 0.0;
   double start_time = 0.0;
   std::string detector = "none";
   bool fast = false;
@@ -52,6 +53,9 @@ void setup_agent(CLI::App& app) {
                   "yolo | oracle (the simulator's truth boxes: sim: and kestrel: sources) | none")
       ->check(CLI::IsMember({"yolo", "oracle", "none"}))
       ->capture_default_str();
+  cmd->add_option("--linger", flags->linger,
+                  "seconds to stay online after the source ends (commands, pings, last frame)")
+      ->check(CLI::Range(0.0, 86400.0));
   cmd->add_flag("--fast", flags->fast, "replay as fast as possible instead of at sensor rate");
   cmd->add_option("--video", flags->video,
                   "WebRTC video to the station page: WIDTHxHEIGHT (640x480, 1280x720) | off")
@@ -75,6 +79,7 @@ void setup_agent(CLI::App& app) {
     }
     opt.duration_s = flags->duration;
     opt.start_s = flags->start_time;
+    opt.linger_s = flags->linger;
     opt.detector = flags->detector;
     opt.realtime = !flags->fast;
     if (flags->video != "off") {

@@ -116,6 +116,38 @@ std::unique_ptr<detect::Detector> make_detector(const AgentRunOptions& o) {
   return nullptr;
 }
 
+// Commands and pings are answered by the link's own thread; this keeps the status fresh (the
+// station's liveness) and the viewers' picture moving at the encoder's rate.
+void linger(const AgentRunOptions& options, TelemetryObserver& telemetry, WebRtcVideoLink* video,
+            OverlayCollector& overlay, const Image& last_color) {
+  if (options.linger_s <= 0) return;
+  using clock = std::chrono::steady_clock;
+  const auto end = clock::now() + std::chrono::duration_cast<clock::duration>(
+                                      std::chrono::duration<double>(options.linger_s));
+  const auto frame_period = std::chrono::duration_cast<clock::duration>(
+      std::chrono::duration<double>(1.0 / (options.video ? options.video->fps : 1.0)));
+  auto next_status = clock::now() + std::chrono::seconds(1);
+  auto next_frame = clock::now();
+  if (options.progress) {
+    std::printf("  source finished; staying online for %.0f s\n", options.linger_s);
+    std::fflush(stdout);
+  }
+  while (clock::now() < end) {
+    const auto now = clock::now();
+    if (now >= next_status) {
+      telemetry.publish_status("finished");
+      next_status = now + std::chrono::seconds(1);
+    }
+    if (video && !last_color.empty() && now >= next_frame) {
+      const VideoOverlay o = overlay.latest();
+      video->sender().push_frame(last_color, wall_clock_ns(), &o);
+      next_frame += frame_period;
+      if (next_frame < now) next_frame = now;
+    }
+    std::this_thread::sleep_until(std::min({end, next_status, video ? next_frame : end}));
+  }
+}
+
 }  // namespace
 
 AgentRunSummary run_agent(io::MeasurementSource& source, const AgentRunOptions& options) {
@@ -312,6 +344,7 @@ AgentRunSummary run_agent(io::MeasurementSource& source, const AgentRunOptions& 
   Timestamp paused_ns = 0;
   std::size_t fed_frames = 0;
   std::chrono::steady_clock::time_point first_frame_wall, last_frame_wall;
+  Image last_color;  // what a lingering agent's viewers keep seeing
   while (auto m = source.next()) {
     telemetry.poses().poll(wall_clock_ns());
     const Timestamp t = stamp_of(*m);
@@ -359,6 +392,7 @@ AgentRunSummary run_agent(io::MeasurementSource& source, const AgentRunOptions& 
       if (video) {
         const VideoOverlay o = overlay.latest();
         video->sender().push_frame(f->color, wall_clock_ns(), &o);
+        last_color = f->color;
       }
       if (!drop) {
         recent.push_back(*f);
@@ -381,6 +415,7 @@ AgentRunSummary run_agent(io::MeasurementSource& source, const AgentRunOptions& 
   update_map();
   snapshot_objects(true);
   telemetry.publish_status("finished");
+  linger(options, telemetry, video.get(), overlay, last_color);
   // Let the outbox drain before the link says goodbye.
   for (int i = 0; i < 100 && link.client().outbox_size() > 0; ++i) {
     std::this_thread::sleep_for(std::chrono::milliseconds(10));

@@ -40,6 +40,11 @@ struct AgentRunOptions {
   int max_frames_in_flight = 2;
   double pose_wait_s =
       0.1;  // real time: a frame's tracked pose is awaited this long, then predicted
+  // After the source ends the agent stays online this long (0: it leaves at once): status
+  // "finished", commands still answered on its final map (a goal, save map), pings answered
+  // and the last camera frame streamed on to its viewers, so that an operator can still plan
+  // on, and look at, what a finished replay saw.
+  double linger_s = 0.0;
 };
 
 struct AgentRunSummary {

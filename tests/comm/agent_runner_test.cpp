@@ -1,6 +1,7 @@
 // A whole agent (comm/agent_runner.hpp) on a short rendered scene, driven by a station through
 // a real broker: poses flow, pause stops them, resume restarts them, goal / home plan on the
-// agent's own grid, save_map writes files, teleop is refused.
+// agent's own grid, save_map writes files, teleop is refused; a lingering agent stays online
+// after its source ends.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -113,6 +114,60 @@ TEST(AgentRunner, ObeysStationCommandsWhileReplaying) {
   EXPECT_GT(summary.frames, 100u);
   EXPECT_EQ(summary.link.commands_executed, 5u);
   EXPECT_GT(summary.grid_messages, 0u);
+  EXPECT_TRUE(
+      station.wait_for([](const auto& m) { return m.at("ugv1").status.state == "offline"; }, 5s));
+  fs::remove_all(dir);
+}
+
+// --linger: a finished replay stays on the station's table, answering commands on its final
+// map, until its time is up; then it leaves (offline by its last will's retained status).
+TEST(AgentRunner, LingersOnlineAfterTheSourceEnds) {
+  namespace fs = std::filesystem;
+  const fs::path dir =
+      fs::temp_directory_path() / ("kestrel-agent-linger-" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  sim::ScenarioOverrides over;
+  over.duration = 2.0;
+  sim::Simulator sim(sim::load_scenario("office-static", over));
+  sim::record_sequence(sim, (dir / "seq").string());
+
+  test::LocalBroker broker({{"station", "st"}, {"ugv1", "pw"}});
+  StationLinkOptions so;
+  so.mqtt.port = broker.port();
+  so.mqtt.username = "station";
+  so.mqtt.password = "st";
+  StationLink station(so);
+  station.start();
+  ASSERT_TRUE(station.wait_connected(5s));
+
+  AgentRunOptions ao;
+  ao.link.id = "ugv1";
+  ao.link.mqtt.port = broker.port();
+  ao.link.mqtt.password = "pw";
+  ao.progress = false;
+  ao.linger_s = 4.0;
+  AgentRunSummary summary;
+  std::thread agent([&] {
+    auto source = io::open_dataset("kestrel:" + (dir / "seq").string());
+    summary = run_agent(*source, ao);
+  });
+  ASSERT_TRUE(station.wait_for(
+      [](const auto& m) { return m.count("ugv1") && m.at("ugv1").status.state == "finished"; },
+      60s));
+  CommandMsg save;
+  save.kind = CommandKind::kSaveMap;
+  save.path = (dir / "saved").string();
+  const auto id = station.send_command("ugv1", save);
+  ASSERT_TRUE(id);
+  const auto ack = station.wait_ack(*id, 3s);
+  ASSERT_TRUE(ack);
+  EXPECT_EQ(ack->result, AckResult::kDone) << ack->detail;
+  EXPECT_TRUE(fs::exists(dir / "saved" / "trajectory.txt"));
+  EXPECT_EQ(station.agent("ugv1")->status.state, "finished");  // not gone yet
+
+  agent.join();
+  EXPECT_GE(summary.wall_seconds, 2.0 + ao.linger_s - 0.5);
+  EXPECT_EQ(summary.link.commands_executed, 1u);
   EXPECT_TRUE(
       station.wait_for([](const auto& m) { return m.at("ugv1").status.state == "offline"; }, 5s));
   fs::remove_all(dir);

@@ -25,7 +25,8 @@ try {
 
   const agents = [['uav1', 'uav'], ['ugv1', 'ugv']].map(([id, role]) =>
     start(id, ['agent', '--id', id, '--role', role, '--broker', broker, '--password', users[id],
-      '--source', 'sim:office-static', '--duration', '20']));
+      // Online after the 20 s replay, so that a loaded machine's slow phases still find it.
+      '--source', 'sim:office-static', '--duration', '20', '--linger', '300']));
   const httpPort = await freePort();
   const station = start('station', ['station', '--broker', broker, '--password', users.station,
     '--http', String(httpPort), '--ws-port', String(wsPort), '--duration', '300']);

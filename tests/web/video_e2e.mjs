@@ -45,7 +45,10 @@ const elapsed = () => `${((Date.now() - t0) / 1000).toFixed(1)} s`;
 let browser = null;
 const sequence = path.join(tmp, 'office-static');
 const agentArgs = (duration) => ['agent', '--id', 'ugv1', '--role', 'ugv', '--broker', null, '--password', 'pw-ugv',
-  '--source', `kestrel:${sequence}`, '--duration', String(duration), '--video', size];
+  '--source', `kestrel:${sequence}`, '--duration', String(duration), '--video', size,
+  // Online, streaming its last frame, after the replay ends: with both cores loaded the phases
+  // below can outlast the sequence (the second viewer once joined 8 s before the replay's end).
+  '--linger', '600'];
 try {
   const users = { station: 'st-secret', ugv1: 'pw-ugv' };
   const { port, wsPort } = h.startBroker(users);
@@ -218,7 +221,7 @@ try {
   agent.kill('SIGKILL');
   await new Promise((r) => (agent.exitCode !== null || agent.signalCode !== null ? r() : agent.once('exit', r)));
   console.log(`[${elapsed()}] agent killed; starting it again`);
-  agent = start('agent2', withBroker(agentArgs(20)));
+  agent = start('agent2', withBroker(agentArgs(seconds)));
   const back = await waitFor('the video to come back after the agent restart', async () => {
     if (agent.exitCode !== null) throw new Error(`restarted agent exited:\n${tail(agent)}`);
     const v = await video();
