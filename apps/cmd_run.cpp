@@ -37,6 +37,7 @@ struct RunFlags {
   bool triangulate = false;
   bool half_resolution_flow = false;
   bool inertial_ba = false;
+  bool no_gyro_prior = false;
   bool realtime = false;
   double duration = -1.0;  // sim: scenes only
   bool no_movers = false;  // sim: scenes only
@@ -207,6 +208,8 @@ void setup_run(CLI::App& app) {
                 "also triangulate map points where depth has none (beyond its range, holes)");
   cmd->add_flag("--inertial-ba", flags->inertial_ba,
                 "visual-inertial local BA: keyframes joined by the IMU's pre-integration");
+  cmd->add_flag("--no-gyro-prior", flags->no_gyro_prior,
+                "no gyro rotation prior in the per-frame pose optimization");
   cmd->add_flag("--half-res-flow", flags->half_resolution_flow,
                 "the dynamic filter's flow on the half-resolution image: a quarter of the cost");
   cmd->add_flag("--realtime", flags->realtime,
@@ -254,6 +257,7 @@ void setup_run(CLI::App& app) {
     opt.triangulate = flags->triangulate;
     opt.half_resolution_flow = flags->half_resolution_flow;
     opt.inertial_ba = flags->inertial_ba;
+    opt.gyro_rotation_prior = !flags->no_gyro_prior;
     const RunSummary summary = kestrel::pipeline::run_sequence(*source, opt);
     print_summary("run", summary);
     kestrel::report::ReportInput report;

@@ -164,6 +164,7 @@ struct System::Impl {
   std::optional<imu::Preintegration> kf_pre;  // the same interval, fully pre-integrated
   Timestamp gyro_t = 0;
   std::optional<SE3> prev_T_w_c;      // the previous frame's camera pose: tracked, or the IMU's
+  bool prev_tracked = false;          // ... and it was tracked by vision
   std::optional<Vec3> predicted_v_w;  // the body velocity of this frame's IMU prediction
   bool inertial = false;              // IMU used at all (wait, gyro for the filter, prediction)
   bool imu_missing = false;      // under imu_mutex: the calibration has an IMU, the stream none
@@ -571,6 +572,7 @@ struct System::Impl {
     prev_pyramid = std::move(cur_pyramid);
     prev_depth = frame.depth;  // shared pixels, not a copy
     prev_depth_scale = frame.depth_scale;
+    const Timestamp frame_t_prev = prev_t;
     prev_t = frame.t;
 
     report.feature_px.reserve(features.size());
@@ -588,6 +590,22 @@ struct System::Impl {
     }
     tracker.set_attitude_hint(attitude);
     if (inertial) link_gyro(frame.t);
+    if (inertial && options.gyro_rotation_prior && prev_tracked && prev_T_w_c && frame_t_prev > 0 &&
+        frame.t > frame_t_prev) {
+      std::optional<SO3> d;
+      {
+        std::lock_guard<std::mutex> lock(imu_mutex);
+        d = gyro_delta(imu, frame_t_prev, frame.t, predictor.bias().gyro);
+      }
+      if (d) {
+        const SO3 R_bc = calib.T_body_camera.so3();
+        const SO3 R_prev_cur = R_bc.inverse() * *d * R_bc;  // camera frame
+        const double dt = to_seconds(frame.t - frame_t_prev);
+        const double sigma = calib.imu.gyro_noise * std::sqrt(dt) + options.gyro_prior_sigma_floor +
+                             options.gyro_prior_relative_sigma * R_prev_cur.angle();
+        tracker.set_rotation_prior(prev_T_w_c->so3() * R_prev_cur, sigma);
+      }
+    }
     tracker.set_body_velocity(options.inertial_ba ? predicted_v_w : std::nullopt);
     t0 = Clock::now();
     const tracking::TrackResult tr =
@@ -655,6 +673,9 @@ struct System::Impl {
       report.inertial_only = true;
       report.source = PoseSource::kImu;
     }
+    prev_tracked = (tr.state == tracking::TrackingState::kOk ||
+                    tr.state == tracking::TrackingState::kRelocalized) &&
+                   !tr.bridged;
     if (tr.state == tracking::TrackingState::kOk ||
         tr.state == tracking::TrackingState::kRelocalized) {
       prev_T_w_c = tr.T_w_c;

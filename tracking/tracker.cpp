@@ -73,6 +73,17 @@ TrackResult Tracker::track(const RgbdFrame& frame, const std::optional<SE3>& pre
   return r;
 }
 
+void Tracker::set_rotation_prior(const SO3& R_w_c, double sigma_rad) {
+  if (!(sigma_rad > 0.0) || !std::isfinite(sigma_rad) || !R_w_c.matrix().allFinite()) {
+    rotation_prior_.reset();
+    return;
+  }
+  PosePrior p;
+  p.T_c_w = SE3(R_w_c.inverse(), Vec3::Zero());  // the translation carries no information
+  p.information.bottomRightCorner<3, 3>() = Mat3::Identity() / (sigma_rad * sigma_rad);
+  rotation_prior_ = p;
+}
+
 TrackResult Tracker::track(FrameFeatures f, const MotionPrior& prior,
                            const std::vector<std::uint8_t>* keep) {
   const double sr = prior.rotation_sigma, st = prior.translation_sigma;
@@ -92,6 +103,10 @@ TrackResult Tracker::track(FrameFeatures f, const MotionPrior& prior,
 TrackResult Tracker::track(FrameFeatures f, const std::optional<SE3>& predicted,
                            const std::vector<std::uint8_t>* keep) {
   const auto t0 = Clock::now();
+  struct ResetRotationPrior {  // for this frame only, also when track() throws
+    std::optional<PosePrior>& p;
+    ~ResetRotationPrior() { p.reset(); }
+  } reset_rotation{rotation_prior_};
   if (keep) {
     if (keep->size() != f.size()) {
       throw std::invalid_argument("Tracker::track: keep mask has " + std::to_string(keep->size()) +
@@ -526,9 +541,10 @@ PoseOptimizerResult Tracker::optimize(const FrameFeatures& f, Matched& m, const 
     obs.push_back({p->p_w, f.keypoints[i].un, 1.0 / f.level_sigma2(f.keypoints[i].level)});
     feature_of.push_back(i);
   }
-  PoseOptimizerResult r =
-      optimize_pose(camera_, obs, T_c_w, options_.pose,
-                    prior_ && options_.prior_in_optimization ? &*prior_ : nullptr);
+  const PosePrior* prior = prior_ && options_.prior_in_optimization ? &*prior_
+                           : rotation_prior_                        ? &*rotation_prior_
+                                                                    : nullptr;
+  PoseOptimizerResult r = optimize_pose(camera_, obs, T_c_w, options_.pose, prior);
   m.count = 0;
   for (std::size_t k = 0; k < obs.size(); ++k) {
     if (!r.inlier[k]) {

@@ -138,6 +138,13 @@ class Tracker {
   // with it within relocalize_max_prediction_rad. nullopt: no attitude check.
   void set_attitude_hint(const std::optional<SO3>& R_w_c) { attitude_hint_ = R_w_c; }
 
+  // The gyro's word on the coming frame's attitude: the previous frame's tracked rotation turned
+  // by the gyro since then, R_w_c, with a sigma in radians (per axis). It weighs in every pose
+  // optimization of the next track() (a rotation-only PosePrior) unless a MotionPrior already
+  // does; then it is cleared. Walkers' features that slip past the dynamic filter pull vision's
+  // rotation a little every frame, always the same way, and the map follows.
+  void set_rotation_prior(const SO3& R_w_c, double sigma_rad);
+
   // Pose of the first frame (identity unless set before it).
   void set_initial_pose(const SE3& T_w_c) { initial_T_w_c_ = T_w_c; }
 
@@ -208,9 +215,10 @@ class Tracker {
   TrackingState state_ = TrackingState::kInitializing;
   SE3 initial_T_w_c_;
   SE3 last_T_w_c_;
-  std::optional<SE3> velocity_;        // T_prev_cur of the last two good frames
-  std::optional<SE3> coast_velocity_;  // velocity_ when the track was lost
-  std::optional<SO3> attitude_hint_;   // set_attitude_hint()
+  std::optional<SE3> velocity_;              // T_prev_cur of the last two good frames
+  std::optional<SE3> coast_velocity_;        // velocity_ when the track was lost
+  std::optional<SO3> attitude_hint_;         // set_attitude_hint()
+  std::optional<PosePrior> rotation_prior_;  // set_rotation_prior(), for one track()
   std::optional<mapping::GyroLink> gyro_link_;
   std::optional<Vec3> body_velocity_;
   int lost_frames_ = 0;  // frames since the track was lost

@@ -110,6 +110,28 @@ TEST(Tracker, KeepMaskExcludesFeaturesAndAllDynamicIsLost) {
   EXPECT_THROW(tracker.track(f, std::nullopt, &wrong_size), std::invalid_argument);
 }
 
+// The gyro's rotation prior weighs in the next track() only: tight, it holds the rotation where
+// the gyro says (the points still place the translation); the frame after is vision's again.
+TEST(Tracker, RotationPriorHoldsOneFrameThenClears) {
+  Tracker tracker(tum_camera());
+  const RgbdFrame frame = tum_frame();
+  tracker.track(frame);
+  const SO3 turned = SO3::exp(Vec3(0.0, 0.002, 0.0));
+  tracker.set_rotation_prior(turned, 1e-6);
+  const TrackResult held = tracker.track(frame);
+  ASSERT_EQ(held.state, TrackingState::kOk);
+  EXPECT_LT((held.T_w_c.so3().inverse() * turned).angle(), 1e-4);
+  EXPECT_TRUE(held.T_w_c.is_finite());
+  const TrackResult next = tracker.track(frame);
+  ASSERT_EQ(next.state, TrackingState::kOk);
+  EXPECT_LT(next.T_w_c.so3().angle(), 1e-6);
+  // A loose prior leaves vision alone; a broken one is none.
+  tracker.set_rotation_prior(turned, 1.0);
+  EXPECT_LT(tracker.track(frame).T_w_c.so3().angle(), 1e-5);
+  tracker.set_rotation_prior(turned, std::nan(""));
+  EXPECT_LT(tracker.track(frame).T_w_c.so3().angle(), 1e-6);
+}
+
 TEST(Tracker, NonFinitePredictionIsIgnored) {
   Tracker tracker(tum_camera());
   const RgbdFrame frame = tum_frame();
