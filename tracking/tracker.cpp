@@ -93,20 +93,21 @@ TrackResult Tracker::track(FrameFeatures f, const MotionPrior& prior,
     p.information.diagonal() << Vec3::Constant(1.0 / (st * st)), Vec3::Constant(1.0 / (sr * sr));
     prior_ = p;
   }
-  struct ResetPrior {  // also when track() throws (a bad keep mask)
-    std::optional<PosePrior>& p;
-    ~ResetPrior() { p.reset(); }
-  } reset{prior_};
   return track(std::move(f), std::optional<SE3>(prior.T_w_c), keep);
 }
 
 TrackResult Tracker::track(FrameFeatures f, const std::optional<SE3>& predicted,
                            const std::vector<std::uint8_t>* keep) {
   const auto t0 = Clock::now();
-  struct ResetRotationPrior {  // for this frame only, also when track() throws
-    std::optional<PosePrior>& p;
-    ~ResetRotationPrior() { p.reset(); }
-  } reset_rotation{rotation_prior_};
+  // A MotionPrior and a rotation prior hold for this frame only, also when track() throws (a
+  // bad keep mask).
+  struct ResetPriors {
+    Tracker& t;
+    ~ResetPriors() {
+      t.prior_.reset();
+      t.rotation_prior_.reset();
+    }
+  } reset_priors{*this};
   if (keep) {
     if (keep->size() != f.size()) {
       throw std::invalid_argument("Tracker::track: keep mask has " + std::to_string(keep->size()) +

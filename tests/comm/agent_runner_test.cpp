@@ -24,31 +24,47 @@ namespace {
 
 using namespace std::chrono_literals;
 
-TEST(AgentRunner, ObeysStationCommandsWhileReplaying) {
-  namespace fs = std::filesystem;
-  const fs::path dir =
-      fs::temp_directory_path() / ("kestrel-agent-test-" + std::to_string(getpid()));
-  fs::remove_all(dir);
-  sim::ScenarioOverrides over;
-  over.duration = 4.0;
-  sim::Simulator sim(sim::load_scenario("office-static", over));
-  sim::record_sequence(sim, (dir / "seq").string());
-
-  test::LocalBroker broker({{"station", "st"}, {"ugv1", "pw"}});
+// Every test here: a broker that knows the station and ugv1, the station's link to it and the
+// agent's options for it.
+StationLinkOptions station_options(const test::LocalBroker& broker) {
   StationLinkOptions so;
   so.mqtt.port = broker.port();
   so.mqtt.username = "station";
   so.mqtt.password = "st";
-  StationLink station(so);
-  station.start();
-  ASSERT_TRUE(station.wait_connected(5s));
+  return so;
+}
 
+AgentRunOptions ugv1_options(const test::LocalBroker& broker) {
   AgentRunOptions ao;
   ao.link.id = "ugv1";
   ao.link.mqtt.port = broker.port();
   ao.link.mqtt.password = "pw";
-  ao.grid_period_s = 0.5;
   ao.progress = false;
+  return ao;
+}
+
+// office-static, `seconds` long, recorded into DIR/seq (DIR emptied first).
+void record_office(const std::filesystem::path& dir, double seconds) {
+  std::filesystem::remove_all(dir);
+  sim::ScenarioOverrides over;
+  over.duration = seconds;
+  sim::Simulator sim(sim::load_scenario("office-static", over));
+  sim::record_sequence(sim, (dir / "seq").string());
+}
+
+TEST(AgentRunner, ObeysStationCommandsWhileReplaying) {
+  namespace fs = std::filesystem;
+  const fs::path dir =
+      fs::temp_directory_path() / ("kestrel-agent-test-" + std::to_string(getpid()));
+  record_office(dir, 4.0);
+
+  test::LocalBroker broker({{"station", "st"}, {"ugv1", "pw"}});
+  StationLink station(station_options(broker));
+  station.start();
+  ASSERT_TRUE(station.wait_connected(5s));
+
+  AgentRunOptions ao = ugv1_options(broker);
+  ao.grid_period_s = 0.5;
   AgentRunSummary summary;
   std::thread agent([&] {
     auto source = io::open_dataset("kestrel:" + (dir / "seq").string());
@@ -125,26 +141,14 @@ TEST(AgentRunner, LingersOnlineAfterTheSourceEnds) {
   namespace fs = std::filesystem;
   const fs::path dir =
       fs::temp_directory_path() / ("kestrel-agent-linger-" + std::to_string(getpid()));
-  fs::remove_all(dir);
-  sim::ScenarioOverrides over;
-  over.duration = 2.0;
-  sim::Simulator sim(sim::load_scenario("office-static", over));
-  sim::record_sequence(sim, (dir / "seq").string());
+  record_office(dir, 2.0);
 
   test::LocalBroker broker({{"station", "st"}, {"ugv1", "pw"}});
-  StationLinkOptions so;
-  so.mqtt.port = broker.port();
-  so.mqtt.username = "station";
-  so.mqtt.password = "st";
-  StationLink station(so);
+  StationLink station(station_options(broker));
   station.start();
   ASSERT_TRUE(station.wait_connected(5s));
 
-  AgentRunOptions ao;
-  ao.link.id = "ugv1";
-  ao.link.mqtt.port = broker.port();
-  ao.link.mqtt.password = "pw";
-  ao.progress = false;
+  AgentRunOptions ao = ugv1_options(broker);
   ao.linger_s = 4.0;
   AgentRunSummary summary;
   std::thread agent([&] {
@@ -206,11 +210,7 @@ TEST(AgentRunner, PosesReachTheStationAtTheCameraRate) {
   sim::record_sequence(sim, (dir / "seq").string());
 
   test::LocalBroker broker({{"station", "st"}, {"ugv1", "pw"}});
-  StationLinkOptions so;
-  so.mqtt.port = broker.port();
-  so.mqtt.username = "station";
-  so.mqtt.password = "st";
-  StationLink station(so);
+  StationLink station(station_options(broker));
   std::mutex mu;
   std::vector<std::pair<PoseMsg, std::int64_t>> got;  // pose, arrival (station wall clock)
   station.on_pose([&](const std::string&, const PoseMsg& p, std::int64_t now) {
@@ -220,11 +220,7 @@ TEST(AgentRunner, PosesReachTheStationAtTheCameraRate) {
   station.start();
   ASSERT_TRUE(station.wait_connected(5s));
 
-  AgentRunOptions ao;
-  ao.link.id = "ugv1";
-  ao.link.mqtt.port = broker.port();
-  ao.link.mqtt.password = "pw";
-  ao.progress = false;
+  const AgentRunOptions ao = ugv1_options(broker);
   auto source = io::open_dataset("kestrel:" + (dir / "seq").string());
   const AgentRunSummary summary = run_agent(*source, ao);
   std::this_thread::sleep_for(300ms);
