@@ -17,6 +17,7 @@ nlohmann::json bench_objects(const AreaOptions& o) {
       "class correct | grid IoU | residue, rejection | residue, off | object ms | map ms |\n"
       "|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   nlohmann::json j;
+  std::vector<std::string> detail;
   for (const std::string& scene : scenes) {
     pipeline::SimObjectRunOptions opt;
     opt.scenario = scene;
@@ -44,7 +45,13 @@ nlohmann::json bench_objects(const AreaOptions& o) {
                 {"dynamic_residue_off", off.dynamic_residue},
                 {"object_update_ms_median", s.object_ms_median},
                 {"map_update_ms_median", s.map_ms_median}};
+    detail.push_back(scene + ":");
+    for (const std::string& line : s.lines) detail.push_back("  " + line);
   }
+  // Each truth object's fit, so that a median can be traced to the objects behind it.
+  std::printf("\n```\n");
+  for (const std::string& line : detail) std::printf("%s\n", line.c_str());
+  std::printf("```\n");
   return j;
 }
 

@@ -55,9 +55,11 @@ ObjectScores score_objects(const std::vector<ObjectBox>& truth,
     size_err.push_back(std::abs(e.size.z() - w.size.z()) / w.size.z());
     char buf[320];
     std::snprintf(buf, sizeof(buf),
-                  "%-13s centre err %.3f m, size %.2fx%.2fx%.2f (truth %.2fx%.2fx%.2f), %d obs%s%s",
-                  w.label.c_str(), dist, ew, ed, e.size.z(), tw, td, w.size.z(), e.observations,
-                  w.label == e.label ? "" : ", reported as ",
+                  "%-13s centre err %.3f m (%+.2f, %+.2f, %+.2f), size %.2fx%.2fx%.2f (truth "
+                  "%.2fx%.2fx%.2f), %d obs%s%s",
+                  w.label.c_str(), dist, e.center.x() - w.center.x(), e.center.y() - w.center.y(),
+                  e.center.z() - w.center.z(), ew, ed, e.size.z(), tw, td, w.size.z(),
+                  e.observations, w.label == e.label ? "" : ", reported as ",
                   w.label == e.label ? "" : e.label.c_str());
     status[p.t] = buf;
   }
