@@ -20,6 +20,14 @@ if(KESTREL_SANITIZE_THREAD)
   target_link_options(kestrel_options INTERFACE -fsanitize=thread)
 endif()
 
+# Sanitizers run everything 3-10x slower. The tests that wait on whole processes (agents, the
+# broker, the browser) multiply their time limits, CTest's TIMEOUT and the waits inside (as
+# $KESTREL_TEST_TIME_SCALE), by this whole number; the sanitizer presets set it.
+set(KESTREL_TEST_TIME_SCALE 1 CACHE STRING "factor on the end-to-end tests' time limits")
+if(NOT KESTREL_TEST_TIME_SCALE MATCHES "^[1-9][0-9]*$")
+  message(FATAL_ERROR "KESTREL_TEST_TIME_SCALE must be a whole number >= 1, not '${KESTREL_TEST_TIME_SCALE}'")
+endif()
+
 # kestrel_add_library(NAME SOURCES... [DEPS ...]) — a static library with the project's options.
 function(kestrel_add_library name)
   cmake_parse_arguments(ARG "" "" "SOURCES;DEPS;PRIVATE_DEPS" ${ARGN})

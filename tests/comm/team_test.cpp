@@ -33,6 +33,7 @@
 #include "sim/sequence_recorder.hpp"
 #include "sim/simulator.hpp"
 #include "tests/comm/local_broker.hpp"
+#include "tests/test_paths.hpp"
 
 namespace kestrel::comm {
 namespace {
@@ -197,7 +198,7 @@ TEST(Team, ThreeAgentsInMarketShareOneMap) {
               (dir / (id + ".log")).string()));
   }
   int running = kAgents;
-  const auto deadline = std::chrono::steady_clock::now() + 150s;
+  const auto deadline = std::chrono::steady_clock::now() + 150s * test::time_scale();
   while (running > 0 && std::chrono::steady_clock::now() < deadline) {
     mapd.spin_once();
     for (pid_t& pid : pids) {

@@ -21,7 +21,11 @@ export function freePort() {
   });
 }
 
-export async function waitFor(what, fn, timeoutMs) {
+// Sanitizer builds run several times slower: CTest passes the factor on every time limit.
+export const timeScale = Math.max(1, Number(process.env.KESTREL_TEST_TIME_SCALE) || 1);
+
+export async function waitFor(what, fn, baseTimeoutMs) {
+  const timeoutMs = baseTimeoutMs * timeScale;
   const t0 = Date.now();
   let last;
   while (Date.now() - t0 < timeoutMs) {
