@@ -37,6 +37,13 @@ void print(const std::string& name, const pipeline::SimObjectScores& s) {
 // chair before the first table shows only its back (completed to a chair's depth by the size
 // prior, semantic/size_prior.hpp: centre error 0.22 -> 0.12 m), the chair behind it only the
 // top of its back, which joins the first chair, and the couch is seen cut by the image border.
+// The second table's centre error (0.20 m, towards the camera) is its far half missing: seen at
+// about 6 degrees from 6.5 m, its top steps ~0.23 m in depth between sampled rows, so the 6 cm
+// voxel clustering leaves the far rows and legs as fragments. Tried and not kept (median,
+// recall): tolerance 0.12 m 0.126 m 4/6, 0.25 m 0.087 m 3/6 (tables within 9 cm, but the chair
+// before the first table swallows it, the table being too occluded to be detected); joining
+// image-lattice neighbours on a grazing surface, the same swallowing; joining fragments wholly
+// inside a box and its depth band, 0.196 m.
 TEST(SimObjects, CafeObjectsAndGridMatchTheWorld) {
   pipeline::SimObjectRunOptions o;
   o.scenario = "cafe";
