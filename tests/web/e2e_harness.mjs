@@ -50,9 +50,20 @@ export function harness(build, name) {
     chromium, chromiumPath, kestrel, children: [], failures: 0, brokerPid: null,
     tmp: fs.mkdtempSync(path.join(os.tmpdir(), `kestrel-${name}-e2e-`)),
   };
+  // A sanitizer build's children print their reports into their logs and may be killed before
+  // their exit status could say so: each log is read for one before it is deleted.
+  const sanitizerReport = /WARNING: ThreadSanitizer|ERROR: AddressSanitizer|ERROR: LeakSanitizer|runtime error:/;
   h.cleanup = () => {
     for (const c of h.children) if (c.exitCode === null && c.signalCode === null) { try { c.kill('SIGKILL'); } catch {} }
     if (h.brokerPid) { try { process.kill(h.brokerPid, 'SIGKILL'); } catch {} h.brokerPid = null; }
+    for (const c of h.children) {
+      if (c.scanned) continue;
+      c.scanned = true;
+      let log = '';
+      try { log = fs.readFileSync(c.logFile, 'utf8'); } catch { continue; }
+      const at = log.search(sanitizerReport);
+      if (at >= 0) h.check(false, `${c.name}: sanitizer report in its log:\n${log.slice(at, at + 3000)}`);
+    }
     fs.rmSync(h.tmp, { recursive: true, force: true });
   };
   process.on('exit', h.cleanup);
