@@ -23,6 +23,7 @@ struct AgentFlags {
   std::string source;
   double duration = 0.0;
   double linger = 0.0;
+  double rate = 1.0;
   double start_time = 0.0;
   std::string detector = "none";
   bool fast = false;
@@ -56,7 +57,13 @@ void setup_agent(CLI::App& app) {
   cmd->add_option("--linger", flags->linger,
                   "seconds to stay online after the source ends (commands, pings, last frame)")
       ->check(CLI::Range(0.0, 86400.0));
-  cmd->add_flag("--fast", flags->fast, "replay as fast as possible instead of at sensor rate");
+  auto* fast =
+      cmd->add_flag("--fast", flags->fast, "replay as fast as possible instead of at sensor rate");
+  cmd->add_option("--rate", flags->rate,
+                  "replay at this multiple of the sensor rate (0.5: half speed; a slow machine "
+                  "or a sanitizer build keeps up with a slower replay)")
+      ->check(CLI::Range(0.01, 100.0))
+      ->excludes(fast);
   cmd->add_option("--video", flags->video,
                   "WebRTC video to the station page: WIDTHxHEIGHT (640x480, 1280x720) | off")
       ->capture_default_str();
@@ -82,6 +89,7 @@ void setup_agent(CLI::App& app) {
     opt.linger_s = flags->linger;
     opt.detector = flags->detector;
     opt.realtime = !flags->fast;
+    opt.rate = flags->rate;
     if (flags->video != "off") {
       kestrel::comm::VideoOptions video;
       kestrel::comm::parse_video_size(flags->video, "--video", video);

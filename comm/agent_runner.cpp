@@ -368,7 +368,10 @@ AgentRunSummary run_agent(io::MeasurementSource& source, const AgentRunOptions& 
                        .count();
     }
     if (options.realtime) {
-      std::this_thread::sleep_until(wall0 + std::chrono::nanoseconds(t - t0 + paused_ns));
+      const double rate = options.rate > 0.0 ? options.rate : 1.0;
+      std::this_thread::sleep_until(
+          wall0 + std::chrono::nanoseconds(
+                      static_cast<std::int64_t>(static_cast<double>(t - t0) / rate) + paused_ns));
     }
     bool drop = false;
     if (!std::holds_alternative<ImuSample>(*m)) {

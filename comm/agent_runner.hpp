@@ -21,6 +21,7 @@ struct AgentRunOptions {
   double duration_s = 0.0;       // 0: the whole source
   double start_s = 0.0;          // skip this much of the source first (a later start on its path)
   bool realtime = true;          // sleep to the stamps' pace; false: as fast as it goes
+  double rate = 1.0;             // real time: the stamps' pace times this (0.5: half speed)
   double grid_period_s = 2.0;    // a grid delta at most this often
   int grid_keyframe_every = 10;  // every n-th grid message is a full keyframe (late joiners)
   double robot_radius = 0.25;    // metres, for planning

@@ -177,6 +177,24 @@ TEST(AgentRunner, LingersOnlineAfterTheSourceEnds) {
   fs::remove_all(dir);
 }
 
+// --rate: half the sensor rate takes twice the source's time (a lower bound: the replay sleeps
+// to the scaled stamps, whatever the machine does besides), and every frame still arrives.
+TEST(AgentRunner, HalfRateReplayTakesTwiceTheSourcesTime) {
+  namespace fs = std::filesystem;
+  const fs::path dir =
+      fs::temp_directory_path() / ("kestrel-agent-rate-" + std::to_string(getpid()));
+  record_office(dir, 1.0);
+  test::LocalBroker broker({{"station", "st"}, {"ugv1", "pw"}});
+  AgentRunOptions ao = ugv1_options(broker);
+  ao.rate = 0.5;
+  auto source = io::open_dataset("kestrel:" + (dir / "seq").string());
+  const AgentRunSummary summary = run_agent(*source, ao);
+  ASSERT_GE(summary.frames, 30u);  // 1 s at 30 fps, both ends
+  const double span_s = static_cast<double>(summary.frames - 1) / 30.0;
+  EXPECT_GE(summary.wall_seconds, 2.0 * span_s - 0.05);
+  fs::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace kestrel::comm
 

@@ -8,7 +8,7 @@
 // Exit 0: pass, 1: fail, 77: cannot run here (no Chromium / web/node_modules) — CTest "skipped".
 import fs from 'node:fs';
 import path from 'node:path';
-import { repo, harness, freePort, sleep, waitFor } from './e2e_harness.mjs';
+import { repo, harness, freePort, sleep, waitFor, timeScale } from './e2e_harness.mjs';
 
 const build = path.resolve(process.argv[2] || path.join(repo, 'build'));
 const artifacts = path.resolve(process.argv[3] || path.join(build, 'test-artifacts'));
@@ -25,8 +25,10 @@ try {
 
   const agents = [['uav1', 'uav'], ['ugv1', 'ugv']].map(([id, role]) =>
     start(id, ['agent', '--id', id, '--role', role, '--broker', broker, '--password', users[id],
-      // Online after the 20 s replay, so that a loaded machine's slow phases still find it.
-      '--source', 'sim:office-static', '--duration', '20', '--linger', '300']));
+      // Online after the 20 s replay, so that a loaded machine's slow phases still find it; a
+      // sanitizer build replays timeScale times slower, so that both agents stream at once.
+      '--source', 'sim:office-static', '--duration', '20', '--linger', '300',
+      '--rate', String(1 / timeScale)]));
   const httpPort = await freePort();
   const station = start('station', ['station', '--broker', broker, '--password', users.station,
     '--http', String(httpPort), '--ws-port', String(wsPort), '--duration', '300']);
