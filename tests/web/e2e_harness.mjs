@@ -64,7 +64,9 @@ export function harness(build, name) {
       const at = log.search(sanitizerReport);
       if (at >= 0) h.check(false, `${c.name}: sanitizer report in its log:\n${log.slice(at, at + 3000)}`);
     }
-    fs.rmSync(h.tmp, { recursive: true, force: true });
+    // KESTREL_KEEP_E2E=1 keeps the children's logs and folders for a look after a failure.
+    if (process.env.KESTREL_KEEP_E2E) console.log(`kept: ${h.tmp}`);
+    else fs.rmSync(h.tmp, { recursive: true, force: true });
   };
   process.on('exit', h.cleanup);
   for (const sig of ['SIGINT', 'SIGTERM']) process.on(sig, () => { h.cleanup(); process.exit(1); });
