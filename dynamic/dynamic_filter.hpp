@@ -81,10 +81,13 @@ struct DynamicFilterOptions {
   // and uav-zigzag (0.31 -> 0.87, 1.74 -> 1.04, lost -> 0.53) but worse on cafe every time
   // (0.010 -> 0.44, 0.10 -> 0.39 m), where walkers fill half the view at 26 and 35 s and it
   // lets ~5% more of their features through there; the seed flow with a finer stop (0.01 px)
-  // gave cafe 0.47 m too, so these runs sit on a knife edge. It stays an option. With the IMU
-  // rotation the flow starts where the rotation puts the point. The backward check keeps the
-  // full pyramid: with fewer levels it starts at the feature and confirms wrong forward tracks
-  // it should reject.
+  // gave cafe 0.47 m too, so these runs sit on a knife edge. Measured again with the gyro
+  // rotation prior in tracking (same renders, default -> half resolution): cafe 0.015 -> 0.33,
+  // 0.011 -> 0.27, 0.087 -> 0.16; market 0.13 -> 0.14, 0.18 -> 0.36, 0.13 -> 0.10; uav-zigzag
+  // 0.53 -> 0.91, 0.07 -> 0.23, 0.22 -> 0.54 m (cafe seed 2 removal: 90.0 -> 89.7%). An option.
+  // With the IMU rotation the flow starts where the rotation puts the point. The backward check
+  // keeps the full pyramid: with fewer levels it starts at the feature and confirms wrong forward
+  // tracks it should reject.
   int lk_window = 15;
   int lk_base_level = 0;  // pyramid level the flow ends on (0: full resolution)
   int lk_levels = 3;      // above lk_base_level
