@@ -54,11 +54,11 @@ export function harness(build, name) {
   // their exit status could say so: each log is read for one before it is deleted.
   const sanitizerReport = /WARNING: ThreadSanitizer|ERROR: AddressSanitizer|ERROR: LeakSanitizer|runtime error:/;
   h.cleanup = () => {
+    if (h.cleaned) return;  // once: from the test's finally, again from process exit
+    h.cleaned = true;
     for (const c of h.children) if (c.exitCode === null && c.signalCode === null) { try { c.kill('SIGKILL'); } catch {} }
     if (h.brokerPid) { try { process.kill(h.brokerPid, 'SIGKILL'); } catch {} h.brokerPid = null; }
     for (const c of h.children) {
-      if (c.scanned) continue;
-      c.scanned = true;
       let log = '';
       try { log = fs.readFileSync(c.logFile, 'utf8'); } catch { continue; }
       const at = log.search(sanitizerReport);
