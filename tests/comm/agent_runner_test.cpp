@@ -18,6 +18,7 @@
 #include "sim/sequence_recorder.hpp"
 #include "sim/simulator.hpp"
 #include "tests/comm/local_broker.hpp"
+#include "tests/test_paths.hpp"
 
 namespace kestrel::comm {
 namespace {
@@ -43,20 +44,19 @@ AgentRunOptions ugv1_options(const test::LocalBroker& broker) {
   return ao;
 }
 
-// office-static, `seconds` long, recorded into DIR/seq (DIR emptied first).
-void record_office(const std::filesystem::path& dir, double seconds) {
-  std::filesystem::remove_all(dir);
+// office-static, `seconds` long, recorded into DIR/seq of a fresh test::temp_dir(name); DIR.
+std::filesystem::path record_office(const std::string& name, double seconds) {
+  const std::filesystem::path dir = test::temp_dir(name);
   sim::ScenarioOverrides over;
   over.duration = seconds;
   sim::Simulator sim(sim::load_scenario("office-static", over));
   sim::record_sequence(sim, (dir / "seq").string());
+  return dir;
 }
 
 TEST(AgentRunner, ObeysStationCommandsWhileReplaying) {
   namespace fs = std::filesystem;
-  const fs::path dir =
-      fs::temp_directory_path() / ("kestrel-agent-test-" + std::to_string(getpid()));
-  record_office(dir, 4.0);
+  const fs::path dir = record_office("agent-commands", 4.0);
 
   test::LocalBroker broker({{"station", "st"}, {"ugv1", "pw"}});
   StationLink station(station_options(broker));
@@ -139,9 +139,7 @@ TEST(AgentRunner, ObeysStationCommandsWhileReplaying) {
 // map, until its time is up; then it leaves (offline by its last will's retained status).
 TEST(AgentRunner, LingersOnlineAfterTheSourceEnds) {
   namespace fs = std::filesystem;
-  const fs::path dir =
-      fs::temp_directory_path() / ("kestrel-agent-linger-" + std::to_string(getpid()));
-  record_office(dir, 2.0);
+  const fs::path dir = record_office("agent-linger", 2.0);
 
   test::LocalBroker broker({{"station", "st"}, {"ugv1", "pw"}});
   StationLink station(station_options(broker));
@@ -181,9 +179,7 @@ TEST(AgentRunner, LingersOnlineAfterTheSourceEnds) {
 // to the scaled stamps, whatever the machine does besides), and every frame still arrives.
 TEST(AgentRunner, HalfRateReplayTakesTwiceTheSourcesTime) {
   namespace fs = std::filesystem;
-  const fs::path dir =
-      fs::temp_directory_path() / ("kestrel-agent-rate-" + std::to_string(getpid()));
-  record_office(dir, 1.0);
+  const fs::path dir = record_office("agent-rate", 1.0);
   test::LocalBroker broker({{"station", "st"}, {"ugv1", "pw"}});
   AgentRunOptions ao = ugv1_options(broker);
   ao.rate = 0.5;
