@@ -85,6 +85,15 @@ struct DynamicFilterOptions {
   // rotation prior in tracking (same renders, default -> half resolution): cafe 0.015 -> 0.33,
   // 0.011 -> 0.27, 0.087 -> 0.16; market 0.13 -> 0.14, 0.18 -> 0.36, 0.13 -> 0.10; uav-zigzag
   // 0.53 -> 0.91, 0.07 -> 0.23, 0.22 -> 0.54 m (cafe seed 2 removal: 90.0 -> 89.7%). An option.
+  // A smaller window at full resolution was measured too (lk_window 9, 3 levels above the
+  // image): a third of the cost (bench_dynamic's cached hybrid row 3.5 ms against 10.2; 11 px:
+  // 5.7 ms) and the same removal on the bench (cafe hybrid+yolo 87.4% removed / 90.2% kept
+  // against 87.6 / 89.2; market within 0.3 pts; uav-zigzag hybrid+oracle 94.7 / 84.6 against
+  // 95.5 / 85.3), yet 60 s runs again worse on cafe: 0.015 -> 0.073, 0.011 -> 0.31,
+  // 0.087 -> 0.078 m; market 0.134 -> 0.132, 0.181 -> 0.194, 0.126 -> 0.087; uav-zigzag seed 1
+  // 0.24 -> 1.15 m. Cafe seed 3 goes wrong in its first 4 s (the estimate stalls while the
+  // camera moves 0.35 m) with per-frame removal within 2% of the default's, so the cause lies
+  // in how tracking takes the few walker features that pass, not in the flow's precision.
   // With the IMU rotation the flow starts where the rotation puts the point. The backward check
   // keeps the full pyramid: with fewer levels it starts at the feature and confirms wrong forward
   // tracks it should reject.
