@@ -5,9 +5,11 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <map>
+#include <ostream>
 #include <type_traits>
 #include <utility>
 
@@ -25,14 +27,23 @@ constexpr char kEnd[4] = {'K', 'E', 'N', 'D'};
 // a corrupt size must not allocate gigabytes (a 2^31-pixel-wide keyframe asked for ~10 GB).
 constexpr int kMaxImageSide = 16384;
 
+// Appends to a buffer: serialize_map takes the whole buffer, save_map hands it to the file each
+// time it passes kFlushBytes, so that saving a long run's map never holds a second copy of it.
 class Writer {
  public:
+  static constexpr std::size_t kFlushBytes = std::size_t{1} << 18;  // 256 KiB
+
+  explicit Writer(std::ostream* sink = nullptr) : sink_(sink) {}
+
   template <typename T>
   void put(T v) {
     static_assert(std::is_trivially_copyable_v<T>);
-    out_.append(reinterpret_cast<const char*>(&v), sizeof(T));
+    bytes(&v, sizeof(T));
   }
-  void bytes(const void* p, std::size_t n) { out_.append(static_cast<const char*>(p), n); }
+  void bytes(const void* p, std::size_t n) {
+    out_.append(static_cast<const char*>(p), n);
+    if (sink_ && out_.size() >= kFlushBytes) flush();
+  }
   void descriptor(const OrbDescriptor& d) {
     std::uint8_t b[32];
     d.to_bytes(b);
@@ -43,9 +54,14 @@ class Writer {
     put(v.y());
     put(v.z());
   }
+  void flush() {
+    sink_->write(out_.data(), static_cast<std::streamsize>(out_.size()));
+    out_.clear();
+  }
   std::string take() { return std::move(out_); }
 
  private:
+  std::ostream* sink_;
   std::string out_;
 };
 
@@ -280,10 +296,7 @@ void check_links(const std::map<KeyframeId, Keyframe>& kfs,
   }
 }
 
-}  // namespace
-
-std::string serialize_map(const Map& map) {
-  Writer w;
+void write_map(Writer& w, const Map& map) {
   w.bytes(kMagic, sizeof(kMagic));
   w.put<std::uint32_t>(kMapFormatVersion);
   w.put<std::uint64_t>(map.num_keyframes());
@@ -294,6 +307,13 @@ std::string serialize_map(const Map& map) {
   w.put<std::uint64_t>(ordered.size());
   for (const auto& [id, p] : ordered) write_point(w, *p);
   w.bytes(kEnd, sizeof(kEnd));
+}
+
+}  // namespace
+
+std::string serialize_map(const Map& map) {
+  Writer w;
+  write_map(w, map);
   return w.take();
 }
 
@@ -342,11 +362,29 @@ Map deserialize_map(const std::string& bytes, const std::string& name) {
 }
 
 void save_map(const std::string& path, const Map& map) {
-  const std::string bytes = serialize_map(map);
-  std::ofstream out(path, std::ios::binary);
-  if (!out) throw Error::at(path, 0, "", "cannot open for writing");
-  out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-  if (!out) throw Error::at(path, 0, "", "write failed");
+  // Written beside the target and renamed over it once complete: a failed save (full disk,
+  // killed process) leaves the previous map.bin as it was.
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    if (!out) throw Error::at(tmp, 0, "", "cannot open for writing");
+    Writer w(&out);
+    write_map(w, map);
+    w.flush();
+    out.close();
+    if (!out) {
+      std::error_code ignored;
+      std::filesystem::remove(tmp, ignored);
+      throw Error::at(tmp, 0, "", "write failed");
+    }
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) {
+    std::error_code ignored;
+    std::filesystem::remove(tmp, ignored);
+    throw Error::at(path, 0, "", "cannot replace it with " + tmp + ": " + ec.message());
+  }
 }
 
 Map load_map(const std::string& path) {

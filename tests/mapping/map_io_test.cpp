@@ -117,6 +117,29 @@ TEST_F(MapIo, RoundTripKeepsEverything) {
   }
   // Equal maps, equal sizes (quaternions are re-normalized on load, so bits may move).
   EXPECT_EQ(serialize_map(loaded).size(), read_bytes(path).size());
+  // The file is streamed in pieces (several here), yet holds exactly serialize_map's bytes,
+  // and the temporary it was written to is gone.
+  EXPECT_GT(std::filesystem::file_size(path), 3u << 18);  // three 256 KiB pieces and more
+  EXPECT_TRUE(read_bytes(path) == serialize_map(map()));
+  EXPECT_FALSE(std::filesystem::exists(path + ".tmp"));
+}
+
+TEST_F(MapIo, FailedSaveKeepsThePreviousFile) {
+  const auto dir = test::temp_dir("map_io_failed_save");
+  const std::string path = (dir / "map.bin").string();
+  save_map(path, map());
+  const std::string before = read_bytes(path);
+  // The temporary beside it cannot be created (a folder holds its name): the save fails with
+  // an error naming it, and the map saved before is untouched.
+  std::filesystem::create_directory(path + ".tmp");
+  try {
+    save_map(path, Map());
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("map.bin.tmp"), std::string::npos) << e.what();
+  }
+  EXPECT_TRUE(read_bytes(path) == before);
+  EXPECT_NO_THROW(load_map(path));
 }
 
 TEST_F(MapIo, NewIdsContinuePastTheLoadedOnes) {
