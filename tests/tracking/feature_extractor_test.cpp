@@ -190,9 +190,11 @@ TEST(FeatureExtractor, RetainDropsByIndexAndKeepsArraysAligned) {
     EXPECT_EQ(f.keypoints[j].px, orig.keypoints[i].px);
     EXPECT_EQ(f.descriptors[j], orig.descriptors[i]);
     EXPECT_EQ(f.depth[j], orig.depth[i]);
+    EXPECT_EQ(f.sensor_depth[j], orig.sensor_depth[i]);
     ++j;
   }
   EXPECT_EQ(j, f.size());
+  EXPECT_EQ(f.sensor_depth.size(), f.size());
   EXPECT_THROW(f.retain(std::vector<std::uint8_t>(3, 1)), std::invalid_argument);
 }
 
