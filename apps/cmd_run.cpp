@@ -367,18 +367,24 @@ void setup_demo(CLI::App& app) {
     kestrel::report::write_report(report, report_path);
     std::printf(
         "\n| rejection | APE RMSE (m) | dynamic removed | static kept | tracking FPS | "
-        "detector FPS | lost |\n|---|---|---|---|---|---|---|\n");
+        "detector FPS | lost | objects found |\n|---|---|---|---|---|---|---|---|\n");
     for (int i = 0; i < 2; ++i) {
       const RunSummary& s = results[i];
+      // The objects the run wrote (objects.json): none without a detector.
+      const std::string objects_path = flags->out + "/" + names[i] + "/objects.json";
+      const std::size_t objects =
+          fs::exists(objects_path) ? kestrel::io::read_objects(objects_path).size() : 0;
       // One decimal everywhere, so the printed figures can be checked against summary.json.
-      std::printf("| %s | %.4f | %.1f%% | %.1f%% | %.1f | %s | %zu |\n", names[i], s.ape_rmse_m,
-                  s.removal.removed_percent(), s.removal.kept_percent(),
+      std::printf("| %s | %.4f | %.1f%% | %.1f%% | %.1f | %s | %zu | %zu |\n", names[i],
+                  s.ape_rmse_m, s.removal.removed_percent(), s.removal.kept_percent(),
                   s.tracking_ms_median > 0 ? 1000.0 / s.tracking_ms_median : 0.0,
                   s.detector_ms_median > 0 ? fmt_1(1000.0 / s.detector_ms_median).c_str() : "-",
-                  s.lost);
+                  s.lost, objects);
     }
-    std::printf("\noutputs in %s/ (hybrid/, off/: trajectory.txt, timing.json, summary.json)\n",
-                flags->out.c_str());
+    std::printf(
+        "\noutputs in %s/ (hybrid/, off/: trajectory.txt, timing.json, summary.json, objects.json, "
+        "map.pgm + map.yaml, octomap.bt, cloud.ply)\n",
+        flags->out.c_str());
     std::printf("report: %s\n", report_path.c_str());
   });
 }

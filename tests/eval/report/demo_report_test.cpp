@@ -99,7 +99,7 @@ TEST_F(DemoReport, PrintedTableMatchesSummaryJson) {
   std::stringstream lines(printed);
   for (std::string line; std::getline(lines, line);) {
     const auto c = cells(line);
-    if (c.size() != 7 || (c[0] != "hybrid" && c[0] != "off")) continue;
+    if (c.size() != 8 || (c[0] != "hybrid" && c[0] != "off")) continue;
     ++rows;
     const auto j = nlohmann::json::parse(slurp(*out_ / c[0] / "summary.json"));
     SCOPED_TRACE(line);
@@ -114,6 +114,12 @@ TEST_F(DemoReport, PrintedTableMatchesSummaryJson) {
       EXPECT_NEAR(std::stod(c[5]), j["detector_fps"].get<double>(), 0.05 + 1e-9);
     }
     EXPECT_EQ(std::stoul(c[6]), j["lost"].get<std::size_t>());
+    // Objects found: the entries of the run's objects.json (none without a detector).
+    const auto objects = nlohmann::json::parse(slurp(*out_ / c[0] / "objects.json"));
+    EXPECT_EQ(std::stoul(c[7]), objects.size());
+    if (c[0] == "off") {
+      EXPECT_EQ(objects.size(), 0u);
+    }
     EXPECT_EQ(j["frames"].get<int>(), 151);
   }
   EXPECT_EQ(rows, 2) << printed;
