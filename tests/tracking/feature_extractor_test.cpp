@@ -3,10 +3,16 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <iostream>
+#include <map>
+#include <opencv2/features2d.hpp>
+#include <opencv2/imgproc.hpp>
 #include <random>
 #include <set>
+#include <tuple>
 
+#include "io/cv_image.hpp"
 #include "io/image_io.hpp"
 #include "tests/test_paths.hpp"
 
@@ -47,6 +53,35 @@ TEST(FeatureExtractor, TargetCountAndSpreadOnRealFrame) {
   EXPECT_EQ(f.descriptors.size(), f.size());
   EXPECT_EQ(f.status.size(), f.size());
   for (auto s : f.status) EXPECT_EQ(s, FeatureStatus::kStatic);
+}
+
+// The extractor describes only the keypoints it keeps; its descriptors must be the very bytes
+// ORB gives when it describes every candidate in one pass (the same corners, the same pyramid).
+TEST(FeatureExtractor, DescriptorsEqualOrbsOwnOnRealFrame) {
+  const FeatureExtractor ex(tum_camera());
+  const RgbdFrame frame = tum_frame();
+  const FrameFeatures f = ex.extract(frame);
+  cv::Mat grey;
+  cv::cvtColor(io::as_mat(frame.color), grey, cv::COLOR_BGR2GRAY);
+  const FeatureExtractorOptions& o = ex.options();
+  auto orb = cv::ORB::create(static_cast<int>(std::lround(o.target_features * o.oversample)),
+                             o.scale_factor, o.levels, 19, 0, 2, cv::ORB::HARRIS_SCORE, 31,
+                             o.fast_threshold);
+  std::vector<cv::KeyPoint> kps;
+  cv::Mat desc;
+  orb->detectAndCompute(grey, cv::noArray(), kps, desc);
+  std::map<std::tuple<int, float, float>, int> by_corner;
+  for (std::size_t i = 0; i < kps.size(); ++i) {
+    by_corner[{kps[i].octave, kps[i].angle, kps[i].response}] = static_cast<int>(i);
+  }
+  ASSERT_GE(f.size(), 900u);
+  for (std::size_t i = 0; i < f.size(); ++i) {
+    const Keypoint& k = f.keypoints[i];
+    const auto it = by_corner.find({k.level, k.angle, k.response});
+    ASSERT_NE(it, by_corner.end()) << "feature " << i;
+    EXPECT_EQ(f.descriptors[i], OrbDescriptor::from_bytes(desc.ptr<std::uint8_t>(it->second)))
+        << "feature " << i;
+  }
 }
 
 // The share of `a`'s keypoints that `b` has within a pixel.
