@@ -171,31 +171,45 @@ FrameFeatures FeatureExtractor::extract(const Image& image, const Image* ignore,
   }
 
   // Describing only the chosen keypoints: ORB's compute() rebuilds and blurs the pyramid, but
-  // that costs less than describing the 2000 candidates bucketing drops (orb detect 8.6 ms +
-  // compute of 1000 1.0 ms against detectAndCompute of 3000 11.6 ms on cafe frames, one
-  // core). The descriptors are the same bytes (tests/tracking checks it).
+  // that costs less than describing the 2000 candidates bucketing drops. compute() returns the
+  // keypoints grouped by level with their coordinates scaled down and up again, so each row is
+  // put back at its keypoint's place in the bucketing order, beside the keypoint as detected:
+  // the features come out exactly as describing every candidate gives them (tests/tracking).
   std::vector<cv::KeyPoint> kps;
-  impl_->orb->detect(grey, kps, mask);
-  const std::vector<int> chosen =
-      bucket(kps, image.width, image.height, options_.cell_px, options_.target_features);
+  cv::Mat desc;
+  std::vector<int> chosen;
+  if (options_.describe_chosen_only) {
+    impl_->orb->detect(grey, kps, mask);
+    chosen = bucket(kps, image.width, image.height, options_.cell_px, options_.target_features);
+    std::vector<cv::KeyPoint> described;
+    described.reserve(chosen.size());
+    for (std::size_t i = 0; i < chosen.size(); ++i) {
+      described.push_back(kps[static_cast<std::size_t>(chosen[i])]);
+      described.back().class_id = static_cast<int>(i);
+    }
+    cv::Mat rows;
+    impl_->orb->compute(grey, described, rows);
+    // compute() drops keypoints too close to the border to describe; detect() returns none
+    // such. Should one come anyway, it is dropped from the chosen too.
+    std::vector<int> row_of(chosen.size(), -1);
+    for (std::size_t r = 0; r < described.size(); ++r) {
+      row_of[static_cast<std::size_t>(described[r].class_id)] = static_cast<int>(r);
+    }
+    std::vector<int> kept;
+    desc.create(static_cast<int>(described.size()), rows.cols, rows.type());
+    for (std::size_t i = 0; i < chosen.size(); ++i) {
+      if (row_of[i] < 0) continue;
+      rows.row(row_of[i]).copyTo(desc.row(static_cast<int>(kept.size())));
+      kept.push_back(chosen[i]);
+    }
+    chosen = std::move(kept);
+  } else {
+    impl_->orb->detectAndCompute(grey, mask, kps, desc);
+    chosen = bucket(kps, image.width, image.height, options_.cell_px, options_.target_features);
+  }
   std::vector<cv::KeyPoint> selected;
   selected.reserve(chosen.size());
   for (int i : chosen) selected.push_back(kps[static_cast<std::size_t>(i)]);
-  cv::Mat desc;
-  impl_->orb->compute(grey, selected, desc);
-  if (selected.size() != chosen.size()) {
-    // compute() drops keypoints too close to the border to describe; detect() returns none
-    // such, but should one come, describe every candidate as detected and keep the chosen.
-    std::vector<cv::KeyPoint> again;
-    cv::Mat all_desc;
-    impl_->orb->detectAndCompute(grey, mask, again, all_desc);
-    selected.clear();
-    desc.create(static_cast<int>(chosen.size()), all_desc.cols, all_desc.type());
-    for (std::size_t i = 0; i < chosen.size(); ++i) {
-      selected.push_back(again[static_cast<std::size_t>(chosen[i])]);
-      all_desc.row(chosen[i]).copyTo(desc.row(static_cast<int>(i)));
-    }
-  }
 
   FrameFeatures f;
   f.t = t;
@@ -222,7 +236,8 @@ FrameFeatures FeatureExtractor::extract(const Image& image, const Image* ignore,
                                : Vec3((out.px.x() - camera_.cx) / camera_.fx,
                                       (out.px.y() - camera_.cy) / camera_.fy, 1.0);
     out.un = Vec2(camera_.fx * ray.x() + camera_.cx, camera_.fy * ray.y() + camera_.cy);
-    f.descriptors[i] = OrbDescriptor::from_bytes(desc.ptr<std::uint8_t>(static_cast<int>(i)));
+    f.descriptors[i] = OrbDescriptor::from_bytes(
+        desc.ptr<std::uint8_t>(options_.describe_chosen_only ? static_cast<int>(i) : chosen[i]));
     if (depth && !depth->empty()) {
       const int u = std::clamp(static_cast<int>(std::lround(out.px.x())), 0, depth->width - 1);
       const int v = std::clamp(static_cast<int>(std::lround(out.px.y())), 0, depth->height - 1);
