@@ -35,6 +35,38 @@ void check_sizes(const PlaceView& v) {
 
 }  // namespace
 
+LoopDetector::Stored LoopDetector::compact(const PlaceView& view, const FeatureVector& fv) {
+  Stored s;
+  s.neighbours = view.neighbours;
+  std::vector<int> index_of(view.descriptors.size(), -1);
+  for (std::size_t i = 0; i < view.descriptors.size(); ++i) {
+    if (!view.has_point[i]) continue;
+    index_of[i] = static_cast<int>(s.descriptors.size());
+    s.descriptors.push_back(view.descriptors[i]);
+    s.points_c.push_back(view.points_c[i].cast<float>());
+  }
+  if (s.descriptors.size() > std::numeric_limits<std::uint16_t>::max()) {
+    throw std::invalid_argument("LoopDetector: PlaceView " + std::to_string(view.id) + " has " +
+                                std::to_string(s.descriptors.size()) +
+                                " features with points; at most 65535 are stored");
+  }
+  s.node_start.push_back(0);
+  for (const auto& [node, features] : fv) {  // std::map: ascending nodes
+    const std::size_t before = s.node_features.size();
+    for (int f : features) {
+      const int c = index_of[static_cast<std::size_t>(f)];
+      if (c >= 0) s.node_features.push_back(static_cast<std::uint16_t>(c));
+    }
+    if (s.node_features.size() == before) continue;
+    s.nodes.push_back(node);
+    s.node_start.push_back(static_cast<std::uint32_t>(s.node_features.size()));
+  }
+  s.descriptors.shrink_to_fit();
+  s.points_c.shrink_to_fit();
+  s.node_features.shrink_to_fit();
+  return s;
+}
+
 std::optional<LoopMatch> LoopDetector::process(const PlaceView& keyframe) {
   check_sizes(keyframe);
   FeatureVector fv;
@@ -50,7 +82,7 @@ std::optional<LoopMatch> LoopDetector::process(const PlaceView& keyframe) {
   for (const auto& c : candidates) {
     std::set<KeyframeId> g{c.id};
     if (const auto it = stored_.find(c.id); it != stored_.end())
-      g.insert(it->second.view.neighbours.begin(), it->second.view.neighbours.end());
+      g.insert(it->second.neighbours.begin(), it->second.neighbours.end());
     groups.push_back(std::move(g));
   }
   const std::vector<std::size_t> accepted = checker_.update(groups);
@@ -60,7 +92,7 @@ std::optional<LoopMatch> LoopDetector::process(const PlaceView& keyframe) {
     if (result) checker_.reset();  // a closed loop starts the chains over
   }
   database_.add(keyframe.id, std::move(bow));
-  stored_[keyframe.id] = Stored{keyframe, std::move(fv)};
+  stored_[keyframe.id] = compact(keyframe, fv);
   return result;
 }
 
@@ -101,21 +133,21 @@ std::optional<LoopMatch> LoopDetector::verify(const PlaceView& query,
   // Guided matching: only features under the same vocabulary node are compared.
   std::vector<cv::Point3f> object;
   std::vector<cv::Point2f> image;
-  std::vector<int> used(cand.view.descriptors.size(), 0);
+  std::vector<int> used(cand.descriptors.size(), 0);
   for (const auto& [node, q_features] : query_features) {
-    const auto c_it = cand.features.find(node);
-    if (c_it == cand.features.end()) continue;
+    const auto n_it = std::lower_bound(cand.nodes.begin(), cand.nodes.end(), node);
+    if (n_it == cand.nodes.end() || *n_it != node) continue;
+    const auto k = static_cast<std::size_t>(n_it - cand.nodes.begin());
     for (int qi : q_features) {
       int best = std::numeric_limits<int>::max(), second = best, best_ci = -1;
-      for (int ci : c_it->second) {
-        const auto c = static_cast<std::size_t>(ci);
-        if (!cand.view.has_point[c]) continue;
-        const int d = tracking::hamming(query.descriptors[static_cast<std::size_t>(qi)],
-                                        cand.view.descriptors[c]);
+      for (std::uint32_t j = cand.node_start[k]; j < cand.node_start[k + 1]; ++j) {
+        const std::size_t c = cand.node_features[j];
+        const int d =
+            tracking::hamming(query.descriptors[static_cast<std::size_t>(qi)], cand.descriptors[c]);
         if (d < best) {
           second = best;
           best = d;
-          best_ci = ci;
+          best_ci = static_cast<int>(c);
         } else if (d < second) {
           second = d;
         }
@@ -123,10 +155,9 @@ std::optional<LoopMatch> LoopDetector::verify(const PlaceView& query,
       if (best_ci < 0 || best > options_.max_hamming) continue;
       if (second != std::numeric_limits<int>::max() && best > options_.ratio * second) continue;
       if (used[static_cast<std::size_t>(best_ci)]++) continue;  // one query feature per point
-      const Vec3& p = cand.view.points_c[static_cast<std::size_t>(best_ci)];
+      const Eigen::Vector3f& p = cand.points_c[static_cast<std::size_t>(best_ci)];
       const Vec2& u = query.keypoints_un[static_cast<std::size_t>(qi)];
-      object.emplace_back(static_cast<float>(p.x()), static_cast<float>(p.y()),
-                          static_cast<float>(p.z()));
+      object.emplace_back(p.x(), p.y(), p.z());
       image.emplace_back(static_cast<float>(u.x()), static_cast<float>(u.y()));
     }
   }

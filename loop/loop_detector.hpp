@@ -67,10 +67,18 @@ class LoopDetector {
   std::size_t size() const { return stored_.size(); }
 
  private:
+  // What verification needs of a stored keyframe, compact: only the features with a 3D point
+  // (the only ones PnP can use), and the vocabulary's direct index over them as flat arrays.
+  // A PlaceView and its std::map FeatureVector cost ~100 KB a keyframe; this ~35 KB.
   struct Stored {
-    PlaceView view;
-    FeatureVector features;
+    std::vector<OrbDescriptor> descriptors;
+    std::vector<Eigen::Vector3f> points_c;  // PnP takes float points anyway
+    std::vector<KeyframeId> neighbours;
+    std::vector<NodeId> nodes;                 // ascending
+    std::vector<std::uint32_t> node_start;     // nodes.size() + 1 offsets into node_features
+    std::vector<std::uint16_t> node_features;  // indices into descriptors, ascending per node
   };
+  static Stored compact(const PlaceView& view, const FeatureVector& fv);
   std::optional<LoopMatch> verify_candidates(const PlaceView& query, const FeatureVector& fv,
                                              const std::vector<LoopCandidate>& candidates,
                                              const std::vector<std::size_t>& order) const;
