@@ -103,8 +103,15 @@ nlohmann::json bench_dynamic(const AreaOptions& o) {
   std::printf("\n## Dynamic features (filter alone, %.0f s per scene, against the mover masks)\n\n",
               duration);
   std::printf(
-      "| scene | mode | dynamic removed | static kept | on the unknown mover | dynamic features | "
-      "static features | filter ms p50 |\n|---|---|---|---|---|---|---|---|\n");
+      "A feature is dynamic when its pixel is in the mover mask. \"Away from outlines\" counts "
+      "only features with no pixel of another mover id (static = 0) within %d px (half the flow "
+      "window): nearer, their flow window and descriptor patch straddle a mover's outline.\n\n",
+      dynamic::RemovalCounts::kOutlinePx);
+  std::printf(
+      "| scene | mode | dynamic removed | static kept | away from outlines: removed / kept | on "
+      "the "
+      "unknown mover | dynamic features | static features | filter ms p50 |\n"
+      "|---|---|---|---|---|---|---|---|---|\n");
   detect::YoloFastest yolo(detect::find_models_dir());
   nlohmann::json j;
   std::vector<std::string> reason_lines;
@@ -165,9 +172,10 @@ nlohmann::json bench_dynamic(const AreaOptions& o) {
       const double ms = res.filter_ms.empty() ? 0.0 : median_of(res.filter_ms);
       char unknown_cell[64];
       std::snprintf(unknown_cell, sizeof unknown_cell, "%.1f%% (%zu)", unknown_pct, on_unknown);
-      std::printf("| %s | %s | %.1f%% | %.1f%% | %s | %zu | %zu | %.2f |\n", name.c_str(), row.name,
-                  c.removed_percent(), c.kept_percent(), unknown_cell, c.dynamic_total,
-                  c.static_total, ms);
+      std::printf("| %s | %s | %.1f%% | %.1f%% | %.1f%% / %.1f%% | %s | %zu | %zu | %.2f |\n",
+                  name.c_str(), row.name, c.removed_percent(), c.kept_percent(),
+                  c.removed_away_from_outlines_percent(), c.kept_away_from_outlines_percent(),
+                  unknown_cell, c.dynamic_total, c.static_total, ms);
       reason_lines.push_back("| " + name + " | " + row.name + " | " +
                              reasons_text(c.dynamic_missed_by_reason) + " | " +
                              reasons_text(c.static_removed_by_reason) + " |");
@@ -175,6 +183,10 @@ nlohmann::json bench_dynamic(const AreaOptions& o) {
       j[name]["rows"][row.name] = {
           {"dynamic_removed_percent", c.removed_percent()},
           {"static_kept_percent", c.kept_percent()},
+          {"static_kept_away_from_outlines_percent", c.kept_away_from_outlines_percent()},
+          {"static_near_outline_features", c.static_near_outline},
+          {"dynamic_removed_away_from_outlines_percent", c.removed_away_from_outlines_percent()},
+          {"dynamic_near_outline_features", c.dynamic_near_outline},
           {"dynamic_features", c.dynamic_total},
           {"static_features", c.static_total},
           {"unknown_mover_features", on_unknown},

@@ -666,6 +666,37 @@ TEST(RemovalMetrics, CountsAgainstMoverMask) {
   EXPECT_EQ(c.static_kept, 1u);
   EXPECT_DOUBLE_EQ(c.removed_percent(), 100.0);
   EXPECT_DOUBLE_EQ(c.kept_percent(), 50.0);
+  // (5, 5) is 3 px from the mover pixel, (6, 6) 4 px: both within the outline band.
+  EXPECT_EQ(c.static_near_outline, 2u);
+  EXPECT_EQ(c.static_near_outline_kept, 1u);
+  EXPECT_DOUBLE_EQ(c.kept_away_from_outlines_percent(), 100.0);  // none away from it
+  EXPECT_EQ(c.dynamic_near_outline, 1u);                         // a one-pixel mover is all outline
+  EXPECT_EQ(c.dynamic_near_outline_removed, 1u);
+}
+
+TEST(RemovalMetrics, StaticFeaturesBesideAMoverAreCountedApart) {
+  Image mask = Image::allocate(40, 40, 1, PixelType::kU16);
+  for (int y = 10; y < 20; ++y)
+    for (int x = 10; x < 20; ++x) mask.row<std::uint16_t>(y)[x] = 3;
+  // (25, 15): 6 px right of the mover's last column (19), inside the band; (27, 15): 8 px,
+  // outside; (35, 35) far away. On the 10 px mover every pixel is within 7 px of its outline.
+  const std::vector<Vec2> pts = {Vec2(25, 15), Vec2(27, 15), Vec2(35, 35), Vec2(14, 14)};
+  const std::vector<FeatureLabel> labels = {FeatureLabel::kDynamic, FeatureLabel::kDynamic,
+                                            FeatureLabel::kStatic, FeatureLabel::kStatic};
+  const RemovalCounts c = count_removal(pts, labels, mask);
+  EXPECT_EQ(c.static_total, 3u);
+  EXPECT_EQ(c.static_kept, 1u);
+  EXPECT_EQ(c.static_near_outline, 1u);
+  EXPECT_EQ(c.static_near_outline_kept, 0u);
+  EXPECT_DOUBLE_EQ(c.kept_away_from_outlines_percent(), 50.0);
+  EXPECT_EQ(c.dynamic_total, 1u);
+  EXPECT_EQ(c.dynamic_near_outline, 1u);
+  EXPECT_EQ(c.dynamic_near_outline_removed, 0u);
+  EXPECT_DOUBLE_EQ(c.removed_away_from_outlines_percent(), 100.0);  // none away from it
+  RemovalCounts sum = c;
+  sum += c;
+  EXPECT_EQ(sum.static_near_outline, 2u);
+  EXPECT_EQ(sum.dynamic_near_outline, 2u);
 }
 
 }  // namespace
