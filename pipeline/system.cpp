@@ -183,6 +183,7 @@ struct System::Impl {
   std::size_t keyframes_culled = 0;          // tracking thread: redundant keyframes erased
   std::size_t prior_conflicts = 0;           // frames whose vision disagreed with the IMU
   std::size_t relocalizations_rejected = 0;  // too far from the IMU's pose
+  std::size_t relocalizations_deferred = 0;  // lost while frames queued: no whole-map search
 
   Impl(const Calibration& c, SystemOptions o, std::unique_ptr<detect::Detector> d)
       : calib(c),
@@ -613,6 +614,10 @@ struct System::Impl {
       }
     }
     tracker.set_body_velocity(options.inertial_ba ? predicted_v_w : std::nullopt);
+    // Live, with frames queued behind this one, a lost track must not search the whole map on
+    // every frame: that search is what let latency pile up to seconds on long market runs.
+    // Lock-step runs have all the time they need (and stay reproducible).
+    tracker.set_busy(!options.sequential && frames.size() > 0);
     t0 = Clock::now();
     const tracking::TrackResult tr =
         prior && (options.inertial_prior || options.inertial_gate_chi2 > 0.0)
@@ -700,6 +705,7 @@ struct System::Impl {
       if (tr.restarted) ++restarted;
       if (tr.prior_conflict) ++prior_conflicts;
       if (tr.relocalization_rejected) ++relocalizations_rejected;
+      if (tr.global_search_skipped) ++relocalizations_deferred;
       if (tr.state != tracking::TrackingState::kLost || report.inertial_only) {
         trajectory.push_back(to_seconds(frame.t), report.T_w_body);
       }
@@ -966,6 +972,7 @@ void System::finish() {
   impl_->stats.set_counter("tracking.restarted", impl_->restarted);
   impl_->stats.set_counter("tracking.imu_conflicts", impl_->prior_conflicts);
   impl_->stats.set_counter("tracking.relocalizations_rejected", impl_->relocalizations_rejected);
+  impl_->stats.set_counter("tracking.relocalizations_deferred", impl_->relocalizations_deferred);
   // Threads joined: the map is the tracker's alone. What a long run's memory grows with.
   impl_->stats.set_counter("map.keyframes", impl_->tracker.map().num_keyframes());
   impl_->stats.set_counter("map.points", impl_->tracker.map().num_points());

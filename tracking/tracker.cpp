@@ -178,10 +178,17 @@ TrackResult Tracker::track(FrameFeatures f, const std::optional<SE3>& predicted,
       optimize_ms += ms_since(to);
     }
   }
-  // A coasting guess must do as well as a relocalization would; else search the whole map.
+  // A coasting guess must do as well as a relocalization would; else search the whole map
+  // (when there is time for it).
+  const bool global_search = !busy_ || options_.busy_relocalize_every <= 1 ||
+                             lost_frames_ % options_.busy_relocalize_every == 0;
+  busy_ = false;
   if (relocalizing && !(pose.ok && pose.inliers >= options_.min_inliers_relocalize)) {
     pose.ok = false;
     m = Matched{};
+    res.global_search_skipped = !global_search;
+  }
+  if (relocalizing && !pose.ok && global_search) {
     pts = relocalization_candidates(f);
     int pnp_inliers = 0;
     if (auto T = pnp_against(f, pts, &pnp_inliers)) {

@@ -41,6 +41,11 @@ struct TrackerOptions {
   // frame's descriptors hit most, and their covisible neighbours.
   int relocalize_max_points = 6000;
   int relocalize_keyframes = 3;  // best-voted keyframes whose neighbourhoods are searched
+  // Searching the whole map for a lost track (keyframe voting over every map point) costs
+  // 20-45 ms a frame on a 60 s market map and grows with the map. While frames wait behind the
+  // one being tracked (set_busy), it runs only on every busy_relocalize_every-th lost frame;
+  // the others try the cheap local search around the prediction alone (the IMU carries them).
+  int busy_relocalize_every = 5;
   // For this many frames after a loss the last motion is carried on and the frame is first
   // tracked around that guess (a walker filling the view, a pillar passing close); only then
   // does relocalization search the whole map. 0: relocalize at once.
@@ -123,6 +128,7 @@ struct TrackResult {
   bool prior_conflict = false;           // vision disagreed with the MotionPrior (prior_gate_chi2)
   double prior_chi2 = 0.0;               // the final pose's disagreement with the MotionPrior
   bool relocalization_rejected = false;  // too far from the prediction
+  bool global_search_skipped = false;    // lost, busy: no whole-map search this frame
   mapping::KeyframeId keyframe_id = -1;  // the new keyframe, when there is one
   // Keyframes erased as redundant when the new one came (place recognition forgets them).
   std::vector<mapping::KeyframeId> culled_keyframes;
@@ -144,6 +150,11 @@ class Tracker {
   // does; then it is cleared. Walkers' features that slip past the dynamic filter pull vision's
   // rotation a little every frame, always the same way, and the map follows.
   void set_rotation_prior(const SO3& R_w_c, double sigma_rad);
+
+  // Frames are waiting behind the coming one (a live System falling behind): if the track is
+  // lost, the next track() searches the whole map only on every busy_relocalize_every-th lost
+  // frame. For one track(), then cleared.
+  void set_busy(bool busy) { busy_ = busy; }
 
   // Pose of the first frame (identity unless set before it).
   void set_initial_pose(const SE3& T_w_c) { initial_T_w_c_ = T_w_c; }
@@ -222,6 +233,7 @@ class Tracker {
   std::optional<mapping::GyroLink> gyro_link_;
   std::optional<Vec3> body_velocity_;
   int lost_frames_ = 0;  // frames since the track was lost
+  bool busy_ = false;    // set_busy(), for one track()
   mapping::KeyframeId reference_kf_ = -1;
   mapping::KeyframeId last_kf_ = -1;
   std::vector<mapping::KeyframeId> culled_;     // by the last insert_keyframe, for TrackResult

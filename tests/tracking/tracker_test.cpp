@@ -170,6 +170,40 @@ TEST(Tracker, WaitsForDepthThenLosesOnBlankAndRelocalizes) {
   EXPECT_LT((next.T_w_c.translation() - path[31].translation()).norm(), 0.01);
 }
 
+// A live System falling behind marks frames busy: a lost track then searches the whole map only
+// on every busy_relocalize_every-th lost frame (the first one included), and as soon as it is
+// not busy again.
+TEST(Tracker, BusyLostTrackSearchesTheWholeMapOnlyEveryNthFrame) {
+  const PinholeCamera cam = synthetic_camera();
+  const test::SyntheticScene scene = test::SyntheticScene::office();
+  const std::vector<SE3> path = test::smooth_path(60);
+  TrackerOptions o;
+  o.busy_relocalize_every = 3;
+  o.coast_frames = 0;  // no guess from the last motion: only the whole-map search can find it
+  Tracker tracker(cam, o);
+  RgbdFrame blank;
+  blank.color = Image::allocate(cam.width, cam.height, 1, PixelType::kU8);
+  blank.depth = Image::allocate(cam.width, cam.height, 1, PixelType::kU16);
+  for (int i = 0; i < 20; ++i) {
+    ASSERT_EQ(tracker.track(scene.render(cam, path[static_cast<std::size_t>(i)])).state,
+              TrackingState::kOk);
+  }
+  ASSERT_EQ(tracker.track(blank).state, TrackingState::kLost);  // lost here
+  tracker.set_busy(true);
+  const TrackResult first = tracker.track(blank);  // lost frame 0: searches
+  EXPECT_FALSE(first.global_search_skipped);
+  tracker.set_busy(true);
+  const TrackResult second = tracker.track(scene.render(cam, path[30]));  // lost frame 1: not
+  EXPECT_TRUE(second.global_search_skipped);
+  EXPECT_EQ(second.state, TrackingState::kLost);
+  EXPECT_TRUE(second.T_w_c.is_finite());
+  // Not busy: the same view relocalizes at once.
+  const TrackResult back = tracker.track(scene.render(cam, path[30]));
+  EXPECT_FALSE(back.global_search_skipped);
+  ASSERT_EQ(back.state, TrackingState::kRelocalized);
+  EXPECT_LT((back.T_w_c.translation() - path[30].translation()).norm(), 0.01);
+}
+
 // Long lost, with the IMU's attitude but no position: a relocalization that faces another way
 // than the gyro says is a look-alike place and is refused; one that agrees is taken.
 TEST(Tracker, RelocalizationMustAgreeWithTheAttitudeHint) {
