@@ -537,7 +537,8 @@ struct System::Impl {
       in.cur_gray = &gray;
       in.points = pts;
       in.boxes = boxes;
-      in.depth_m = features.sensor_depth;
+      // The filter is the only reader of the sensor's raw depth: keyframes need not keep it.
+      in.depth_m = std::move(features.sensor_depth);
       in.prev_depth = prev_depth.empty() ? nullptr : &prev_depth;
       in.depth_scale = prev_depth_scale;
       in.cur_depth = frame.depth.empty() ? nullptr : &frame.depth;

@@ -36,7 +36,8 @@ struct FrameFeatures {
   std::vector<double> depth;
   // The sensor's reading under the keypoint (0: none or out of range) even where `depth` is 0
   // because the keypoint sits on a depth step: the dynamic filter wants it there (movers'
-  // silhouettes are where their features are), map points must not be seeded from it.
+  // silhouettes are where their features are), map points must not be seeded from it. May be
+  // empty: the System hands it to the filter, and keyframes do not keep it.
   std::vector<double> sensor_depth;
   // Camera-frame point from depth (meaningful only where depth > 0).
   std::vector<Vec3> points_c;
