@@ -122,10 +122,12 @@ TrackResult Tracker::track(FrameFeatures f, const std::optional<SE3>& predicted,
     return track(std::move(f), std::nullopt, nullptr);
   }
   if (state_ == TrackingState::kInitializing) {
+    busy_ = false;  // set_busy() holds for one track(), this one
     TrackResult r = initialize(std::move(f), predicted);
     r.times.total_ms = ms_since(t0);
     return r;
   }
+  const bool busy = std::exchange(busy_, false);
 
   TrackResult res;
   const auto tm = Clock::now();
@@ -180,9 +182,8 @@ TrackResult Tracker::track(FrameFeatures f, const std::optional<SE3>& predicted,
   }
   // A coasting guess must do as well as a relocalization would; else search the whole map
   // (when there is time for it).
-  const bool global_search = !busy_ || options_.busy_relocalize_every <= 1 ||
+  const bool global_search = !busy || options_.busy_relocalize_every <= 1 ||
                              lost_frames_ % options_.busy_relocalize_every == 0;
-  busy_ = false;
   if (relocalizing && !(pose.ok && pose.inliers >= options_.min_inliers_relocalize)) {
     pose.ok = false;
     m = Matched{};

@@ -30,6 +30,14 @@ PinholeCamera tum_camera() {
   return c;
 }
 
+// A black frame with no depth: nothing to track.
+RgbdFrame blank_frame(const PinholeCamera& cam) {
+  RgbdFrame blank;
+  blank.color = Image::allocate(cam.width, cam.height, 1, PixelType::kU8);
+  blank.depth = Image::allocate(cam.width, cam.height, 1, PixelType::kU16);
+  return blank;
+}
+
 RgbdFrame tum_frame() {
   RgbdFrame f;
   f.color = io::load_image(test::shared_data("tum_fr3/frame/rgb_1341846313.592026.png").string(),
@@ -149,9 +157,7 @@ TEST(Tracker, WaitsForDepthThenLosesOnBlankAndRelocalizes) {
   const test::SyntheticScene scene = test::SyntheticScene::office();
   const std::vector<SE3> path = test::smooth_path(60);
   Tracker tracker(cam);
-  RgbdFrame blank;
-  blank.color = Image::allocate(cam.width, cam.height, 1, PixelType::kU8);
-  blank.depth = Image::allocate(cam.width, cam.height, 1, PixelType::kU16);
+  const RgbdFrame blank = blank_frame(cam);
   EXPECT_EQ(tracker.track(blank).state, TrackingState::kInitializing);
   for (int i = 0; i < 20; ++i) {
     ASSERT_EQ(tracker.track(scene.render(cam, path[static_cast<std::size_t>(i)])).state,
@@ -181,9 +187,7 @@ TEST(Tracker, BusyLostTrackSearchesTheWholeMapOnlyEveryNthFrame) {
   o.busy_relocalize_every = 3;
   o.coast_frames = 0;  // no guess from the last motion: only the whole-map search can find it
   Tracker tracker(cam, o);
-  RgbdFrame blank;
-  blank.color = Image::allocate(cam.width, cam.height, 1, PixelType::kU8);
-  blank.depth = Image::allocate(cam.width, cam.height, 1, PixelType::kU16);
+  const RgbdFrame blank = blank_frame(cam);
   for (int i = 0; i < 20; ++i) {
     ASSERT_EQ(tracker.track(scene.render(cam, path[static_cast<std::size_t>(i)])).state,
               TrackingState::kOk);
@@ -210,9 +214,7 @@ TEST(Tracker, RelocalizationMustAgreeWithTheAttitudeHint) {
   const PinholeCamera cam = synthetic_camera();
   const test::SyntheticScene scene = test::SyntheticScene::office();
   const std::vector<SE3> path = test::smooth_path(60);
-  RgbdFrame blank;
-  blank.color = Image::allocate(cam.width, cam.height, 1, PixelType::kU8);
-  blank.depth = Image::allocate(cam.width, cam.height, 1, PixelType::kU16);
+  const RgbdFrame blank = blank_frame(cam);
   for (const bool agree : {false, true}) {
     Tracker tracker(cam);
     for (int i = 0; i < 20; ++i) {
