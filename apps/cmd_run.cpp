@@ -39,6 +39,7 @@ struct RunFlags {
   bool inertial_ba = false;
   bool no_gyro_prior = false;
   bool realtime = false;
+  int max_in_flight = 2;
   double duration = -1.0;  // sim: scenes only
   bool no_movers = false;  // sim: scenes only
 };
@@ -161,7 +162,9 @@ std::string fmt_1(double v) {
 }
 
 void print_summary(const char* name, const RunSummary& s) {
-  std::printf("%s: %zu frames, %zu tracked, %zu lost", name, s.frames, s.tracked, s.lost);
+  std::printf("%s: %zu frames, ", name, s.frames);
+  if (s.dropped > 0) std::printf("%zu dropped while the tracker was busy, ", s.dropped);
+  std::printf("%zu tracked, %zu lost", s.tracked, s.lost);
   if (s.inertial_only > 0) std::printf(" (%zu of them carried by the IMU)", s.inertial_only);
   if (s.ape_rmse_m >= 0) std::printf(", APE RMSE %.4f m (%zu pairs)", s.ape_rmse_m, s.ape_pairs);
   std::printf("\n");
@@ -215,6 +218,11 @@ void setup_run(CLI::App& app) {
   cmd->add_flag("--realtime", flags->realtime,
                 "as a live sensor: frames fed at their stamps' pace, threads run free (detection "
                 "may lag and drop) instead of in lock-step");
+  cmd->add_option("--max-in-flight", flags->max_in_flight,
+                  "with --realtime: a frame arriving while this many are still being tracked is "
+                  "dropped, as a live camera's would be (0: never drop; the source waits)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   cmd->add_option("--duration", flags->duration, "seconds of a sim: scene (default: its own)");
   cmd->add_flag("--no-movers", flags->no_movers, "a sim: scene without its walkers and vehicles");
   cmd->callback([flags] {
@@ -250,6 +258,7 @@ void setup_run(CLI::App& app) {
     opt.dynamic = *kestrel::dynamic::filter_mode_from_string(flags->dynamic);
     opt.sequential = !flags->realtime;
     opt.paced = flags->realtime;
+    opt.max_frames_in_flight = flags->max_in_flight;
     opt.memory_sample_s = 1.0;
     opt.out_dir = flags->out;
     opt.mode = flags->mode;

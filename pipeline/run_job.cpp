@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -44,7 +45,8 @@ class RunObserver : public Observer {
   }
   // Called from the tracking thread.
   void on_frame(const FrameReport& r) override {
-    progress_.update(++done_, tracking::to_string(r.state));
+    reported_.fetch_add(1);
+    advance(tracking::to_string(r.state));
     std::lock_guard lock(mutex_);
     const std::array<std::size_t, 4> removal = {r.removal.dynamic_total, r.removal.dynamic_removed,
                                                 r.removal.static_total, r.removal.static_kept};
@@ -54,6 +56,9 @@ class RunObserver : public Observer {
       if (!k.frame.color.empty() && k.frame.t == r.t) k.report = r;
     }
   }
+  // Called from the feeding thread for a frame that is not fed (a live run's drop).
+  void skip() { advance("dropping"); }
+  std::size_t reported() const { return reported_.load(); }
   // One line per frame, so a user can see where and why a track was lost (frames.csv).
   void write_frames_csv(const std::string& path) {
     std::lock_guard lock(mutex_);
@@ -86,10 +91,17 @@ class RunObserver : public Observer {
     // the whole RemovalCounts with its per-reason tables.
     std::array<std::size_t, 4> removal;
   };
+  // The tracking thread reports frames, the feeding thread the ones it drops.
+  void advance(const char* state) {
+    std::lock_guard lock(progress_mutex_);
+    progress_.update(++done_, state);
+  }
   ProgressBar& progress_;
   std::vector<KeptFrame>& strip_;
   std::mutex mutex_;
+  std::mutex progress_mutex_;
   std::size_t done_ = 0;
+  std::atomic<std::size_t> reported_{0};
   std::vector<Row> rows_;
 };
 
@@ -190,18 +202,34 @@ RunSummary run_sequence(io::MeasurementSource& source, const RunOptions& options
   std::optional<Timestamp> first_stamp;
   double next_memory_s = 0.0;
   std::int64_t stream_ns = 0;
+  std::size_t fed_frames = 0;
   while (auto m = source.next()) {
     const Timestamp stamp = stamp_of(*m);
     if (!first_stamp) first_stamp = stamp;
     const std::int64_t since_first = stamp - *first_stamp;
     stream_ns = std::max(stream_ns, since_first);
-    if (options.paced) std::this_thread::sleep_until(t0 + std::chrono::nanoseconds(since_first));
+    if (options.paced) {
+      const double rate = options.pace_rate > 0.0 ? options.pace_rate : 1.0;
+      std::this_thread::sleep_until(
+          t0 + std::chrono::nanoseconds(static_cast<std::int64_t>(since_first / rate)));
+    }
     if (options.memory_sample_s > 0 && !std::holds_alternative<ImuSample>(*m) &&
         to_seconds(since_first) >= next_memory_s) {
       summary.memory.push_back({to_seconds(since_first), resident_mib()});
       next_memory_s += options.memory_sample_s;
     }
-    if (next_keep < keep.size() && summary.frames == keep[next_keep]) {
+    // A live camera does not wait: with the tracker still busy on max_frames_in_flight
+    // frames, this one is dropped (the IMU samples all go in: they are what bridges the gap).
+    const bool live = options.paced && !options.sequential && options.max_frames_in_flight > 0;
+    if (live && !std::holds_alternative<ImuSample>(*m) &&
+        fed_frames >=
+            observer.reported() + static_cast<std::size_t>(options.max_frames_in_flight)) {
+      ++summary.frames;
+      ++summary.dropped;
+      observer.skip();
+      continue;
+    }
+    if (next_keep < keep.size() && summary.frames >= keep[next_keep]) {
       if (const auto* f = std::get_if<RgbdFrame>(&*m)) {
         observer.keep(next_keep++, *f);
       } else if (const auto* st = std::get_if<StereoFrame>(&*m)) {
@@ -213,7 +241,7 @@ RunSummary run_sequence(io::MeasurementSource& source, const RunOptions& options
       }
     }
     system.feed(*m);
-    if (!std::holds_alternative<ImuSample>(*m)) ++summary.frames;
+    if (!std::holds_alternative<ImuSample>(*m)) ++summary.frames, ++fed_frames;
   }
   system.finish();
   if (options.memory_sample_s > 0) {
@@ -239,9 +267,13 @@ RunSummary run_sequence(io::MeasurementSource& source, const RunOptions& options
   if (auto it = stages.find("detection"); it != stages.end()) {
     summary.detector_ms_median = it->second.p50_ms;
   }
-  summary.timing_json = system.stats().to_json();
   summary.stages = stages;
   summary.counters = system.stats().counters();
+  // The feeding side's drops sit beside the System's own queue counters.
+  summary.counters["frames.dropped"] = summary.dropped;
+  nlohmann::json timing = nlohmann::json::parse(system.stats().to_json());
+  timing["counters"]["frames.dropped"] = summary.dropped;
+  summary.timing_json = timing.dump(2);
   summary.trajectory = traj;
   // Frames never read (a short source) leave empty slots.
   std::erase_if(summary.strip, [](const KeptFrame& k) { return k.frame.color.empty(); });
@@ -271,6 +303,7 @@ RunSummary run_sequence(io::MeasurementSource& source, const RunOptions& options
 std::string summary_json(const RunSummary& s) {
   nlohmann::json j;
   j["frames"] = s.frames;
+  j["dropped"] = s.dropped;
   j["tracked"] = s.tracked;
   j["lost"] = s.lost;
   j["inertial_only"] = s.inertial_only;

@@ -41,6 +41,12 @@ struct RunOptions {
   // sensor delivers it; with sequential = false this is a real-time run, and frame_latency is
   // what a live user waits from frame arrival to pose.
   bool paced = false;
+  double pace_rate = 1.0;  // paced: this many times the sensor's rate (tests: a source too fast)
+  // Paced and not sequential (a live run): a live camera does not wait for the tracker, so a
+  // frame that arrives while this many are still in flight is dropped (counted, no pose),
+  // as kestrel agent does. 0: every frame is fed and the source waits (the frame queue's
+  // back-pressure), which lets latency grow without bound once the system falls behind.
+  int max_frames_in_flight = 2;
   // Mover masks for the removal figures when the source is not a sequence on disk (the live
   // simulator); else they are read from dataset_dir/dynamic when it exists.
   TruthMaskProvider truth_masks;
@@ -62,6 +68,7 @@ struct KeptFrame {
 
 struct RunSummary {
   std::size_t frames = 0;
+  std::size_t dropped = 0;  // live: frames not fed because the tracker was busy (no pose)
   std::size_t tracked = 0;  // frames with a visual pose
   std::size_t lost = 0;
   std::size_t inertial_only = 0;  // lost frames whose pose the IMU carried (in the trajectory)

@@ -101,7 +101,10 @@ TEST(BenchAreas, TinyRunOfEveryAreaWritesFiniteFigures) {
   // Endurance: 3 s of market live at real-time pace (91 frames), memory sampled along the way.
   EXPECT_EQ(number_at(j, "/endurance/frames"), 91);
   EXPECT_GE(number_at(j, "/endurance/wall_seconds"), 3.0);  // paced: never faster than the sensor
-  EXPECT_GT(number_at(j, "/endurance/tracked"), 45);
+  // Live: frames that arrive while the tracker is busy are dropped; the fed ones are tracked.
+  const double fed = number_at(j, "/endurance/frames") - number_at(j, "/endurance/dropped");
+  EXPECT_GT(fed, 0);
+  EXPECT_GT(number_at(j, "/endurance/tracked"), 0.5 * fed);
   EXPECT_GT(number_at(j, "/endurance/frame_latency_ms/p99"), 0);
   EXPECT_GE(number_at(j, "/endurance/frame_latency_ms/p99"),
             number_at(j, "/endurance/frame_latency_ms/p50"));
