@@ -383,9 +383,19 @@ std::vector<ObjectDatabase::Measurement> ObjectDatabase::measure_all(
     m.points_c = thin(members, options_.point_voxel, options_.max_points_per_observation);
     for (const auto& p : m.points_c) m.points_w.push_back(Rf * p + tf);
     m.box = fit_upright_box(m.points_w);
+    // A box at the image's left or right border: the object goes on out of view, across the
+    // border's ray (turned a quarter left or right of it, seen from above with z up).
+    const double v_mid = 0.5 * (det.y_min + det.y_max);
+    auto across_border = [&](double u, double turn) {
+      const Vec2 ray = (R * kf.camera.unproject(Vec2(u, v_mid))).head<2>();
+      return ray.norm() > 1e-9 ? Vec2(-turn * ray.y(), turn * ray.x()) / ray.norm()
+                               : Vec2::Zero().eval();
+    };
+    if (det.x_min <= 1.0) m.cut_towards += across_border(0.0, 1.0);
+    if (det.x_max >= d.width - 1.0) m.cut_towards += across_border(d.width - 1.0, -1.0);
     if (options_.size_priors) {
       if (const auto prior = footprint_prior(m.label)) {
-        m.box = complete_with_prior(m.box, {kf.T_w_c.translation()}, *prior);
+        m.box = complete_with_prior(m.box, {kf.T_w_c.translation()}, *prior, m.cut_towards);
       }
     }
     m.cut = continues_past_box(box, chosen[b]);
@@ -425,7 +435,9 @@ void ObjectDatabase::refit(Entry& e) const {
         const auto it = keyframe_poses_.find(o.keyframe_id);
         if (it != keyframe_poses_.end()) viewpoints.push_back(it->second.translation());
       }
-      b = complete_with_prior(b, viewpoints, *prior);
+      // Cut in a third of its views or more: the hidden part is past that border.
+      const bool cut = 3 * e.cut_views >= e.object.observations && e.cut_views > 0;
+      b = complete_with_prior(b, viewpoints, *prior, cut ? e.cut_towards : Vec2::Zero());
     }
   }
   // Objects standing on the floor reach down to it: the floor band was cut from the points.
@@ -455,6 +467,8 @@ int ObjectDatabase::merge_duplicates() {
         Entry& gone = b->second;
         for (auto& v : gone.views) keep.views.push_back(std::move(v));
         keep.mean_depth = std::max(keep.mean_depth, gone.mean_depth);
+        keep.cut_towards += gone.cut_towards;
+        keep.cut_views += gone.cut_views;
         keep.object.observations += gone.object.observations;
         keep.object.whole_observations += gone.object.whole_observations;
         keep.object.score_sum += gone.object.score_sum;
@@ -532,6 +546,10 @@ ObjectUpdateStats ObjectDatabase::update(const ObjectKeyframe& kf) {
     o.first_seen = std::min(o.first_seen, kf.stamp);
     o.last_seen = std::max(o.last_seen, kf.stamp);
     match->mean_depth += (m.depth - match->mean_depth) / o.observations;
+    if (m.cut_towards.norm() > 0.0) {
+      match->cut_towards += m.cut_towards.normalized();
+      ++match->cut_views;
+    }
     match->views.push_back({kf.keyframe_id, std::move(m.points_c)});
     if (static_cast<int>(match->views.size()) > options_.max_observations_kept)
       match->views.erase(match->views.begin());

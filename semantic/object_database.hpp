@@ -125,6 +125,8 @@ class ObjectDatabase {
     std::vector<Observation> views;
     double mean_depth = 0.0;                   // of its measurements, for the floor cut
     std::unordered_set<std::uint64_t> voxels;  // world cells (overlap_voxel) its points occupy
+    Vec2 cut_towards = Vec2::Zero();  // sum of its views' image-border cut directions (world)
+    int cut_views = 0;                // views cut by the image's left or right border
   };
   struct Measurement {
     std::string label;
@@ -134,6 +136,7 @@ class ObjectDatabase {
     UprightBox box;
     double depth = 0.0;  // median camera depth of its cluster
     bool cut = false;    // its surface goes on past the box: a part of something larger
+    Vec2 cut_towards = Vec2::Zero();  // world direction past the image border it touches
   };
 
   void update_floor(const ObjectKeyframe& kf);

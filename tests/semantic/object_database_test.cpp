@@ -241,6 +241,7 @@ TEST(ObjectDatabase, AnObjectSeenEndOnKeepsItsFarEnd) {
   auto length = [&](bool extend) {
     ObjectDatabaseOptions opt;
     opt.extend_past_depth_extent = extend;
+    opt.size_priors = false;  // what the depth shows, not a bench's typical length
     ObjectDatabase db(opt);
     const PinholeCamera cam = camera();
     for (int k = 0; k < 4; ++k) {

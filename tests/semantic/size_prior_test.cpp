@@ -20,17 +20,21 @@ UprightBox box_at(double x, double y, double sx, double sy, double yaw = 0.0) {
 }  // namespace
 
 // A chair seen only from behind, by cameras all on its -x side: its backrest is 0.2 m deep.
-// The far side grows to the class's smallest depth, away from the cameras; the near face stays.
+// The far side grows to the class's typical depth, away from the cameras; the near face stays.
 TEST(SizePrior, ChairSeenFromBehindGrowsAwayFromTheCameras) {
   const auto prior = footprint_prior("chair");
   ASSERT_TRUE(prior);
-  const UprightBox seen = box_at(2.0, 0.0, 0.48, 0.2, M_PI / 2);  // long side along y
+  const UprightBox seen = box_at(2.0, 0.0, 0.46, 0.2, M_PI / 2);  // long side along y
   const UprightBox out = complete_with_prior(
       seen, {Vec3(-3, -1, 1.4), Vec3(-4, 0.5, 1.4), Vec3(-3.5, 2, 1.4)}, *prior);
+  // Extents along world x and y, whichever side the box reports as its length.
+  const bool along_x = std::abs(std::cos(out.yaw)) > 0.5;
+  const double x_extent = along_x ? out.size.x() : out.size.y();
+  const double y_extent = along_x ? out.size.y() : out.size.x();
   const double near_face = 2.0 - 0.1;
-  EXPECT_NEAR(out.center.x() - std::min(out.size.x(), out.size.y()) / 2, near_face, 1e-9);
-  EXPECT_NEAR(std::min(out.size.x(), out.size.y()), prior->width, 1e-9);
-  EXPECT_NEAR(std::max(out.size.x(), out.size.y()), 0.48, 1e-9);  // seen whole across
+  EXPECT_NEAR(out.center.x() - x_extent / 2, near_face, 1e-9);
+  EXPECT_NEAR(x_extent, prior->length, 1e-9);
+  EXPECT_NEAR(y_extent, 0.46, 1e-9);  // seen whole across
   EXPECT_NEAR(out.center.y(), 0.0, 1e-9);
   EXPECT_DOUBLE_EQ(out.size.z(), 1.0);
 }
@@ -53,6 +57,23 @@ TEST(SizePrior, CarSeenEndOnGetsALengthSideOnKeepsItsDepth) {
   EXPECT_NEAR(b.size.y(), 1.8, 1e-9);
   EXPECT_NEAR(b.center.x(), 10.0, 1e-9);
   EXPECT_NEAR(b.center.y(), 0.0, 1e-9);
+}
+
+// A sofa along x, seen by cameras on its -x side, always cut by the image border on its -x
+// end: the end away from the cameras was seen, so the sofa grows past the border (-x), not away
+// from the cameras; cut across the axis instead, the hint does not apply.
+TEST(SizePrior, CutByTheImageBorderGrowsPastTheBorder) {
+  const auto prior = footprint_prior("couch");
+  ASSERT_TRUE(prior);
+  const UprightBox seen = box_at(-0.6, 4.4, 1.2, 0.9);  // x from -1.2 to 0.0
+  const std::vector<Vec3> cameras = {Vec3(-4.5, -1.0, 1.4), Vec3(-4.6, 0.0, 1.4)};
+  const UprightBox away = complete_with_prior(seen, cameras, *prior);
+  EXPECT_NEAR(away.center.x() - away.size.x() / 2, -1.2, 1e-9);  // grew towards +x
+  const UprightBox past = complete_with_prior(seen, cameras, *prior, Vec2(-0.8, 0.6));
+  EXPECT_NEAR(past.size.x(), prior->length, 1e-9);
+  EXPECT_NEAR(past.center.x() + past.size.x() / 2, 0.0, 1e-9);  // the seen end stays
+  const UprightBox across = complete_with_prior(seen, cameras, *prior, Vec2(-0.3, 0.95));
+  EXPECT_NEAR(across.center.x(), away.center.x(), 1e-9);
 }
 
 // Seen from one corner only, both far faces were hidden: the longer measured side gets the
