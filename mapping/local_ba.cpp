@@ -373,9 +373,11 @@ int apply_local_ba(Map& map, const LocalBaSolution& sol) {
     map.erase_observation(p, k);
     ++removed;
   }
+  // BA moved the points; their observations changed only where erase_observation (above)
+  // already refreshed them, so their descriptors stand.
   for (const auto& [p, x] : sol.points) {
     (void)x;
-    if (map.point(p)) map.update_point(p);
+    map.update_point_geometry(p);
   }
   return removed;
 }

@@ -65,7 +65,10 @@ void Map::add_observation(PointId pid, KeyframeId kid, int feature) {
   // A feature sees one point and a point is seen once per keyframe: replace stale links.
   const PointId old = kf->point_of_feature[static_cast<std::size_t>(feature)];
   if (old != kNoPoint && old != pid) {
-    if (MapPoint* o = point(old)) o->observations.erase(kid);
+    if (MapPoint* o = point(old)) {
+      o->observations.erase(kid);
+      update_point(old);  // its descriptor and normal follow its observations at once
+    }
   }
   if (auto it = p->observations.find(kid); it != p->observations.end() && it->second != feature) {
     kf->point_of_feature[static_cast<std::size_t>(it->second)] = kNoPoint;
@@ -102,16 +105,46 @@ void Map::erase_point(PointId pid) {
 }
 
 void Map::update_point(PointId pid) {
+  update_point_descriptor(pid);
+  update_point_geometry(pid);
+}
+
+void Map::update_point_descriptor(PointId pid) {
   MapPoint* p = point(pid);
   if (!p || p->observations.empty()) return;
   std::vector<const OrbDescriptor*> descs;
+  descs.reserve(p->observations.size());
+  for (const auto& [kid, feature] : p->observations) {
+    if (const Keyframe* kf = keyframe(kid))
+      descs.push_back(&kf->features.descriptors[static_cast<std::size_t>(feature)]);
+  }
+  if (descs.empty()) return;
+  // The representative descriptor has the least median distance to the others.
+  if (descs.size() <= 2) {
+    p->descriptor = *descs.front();
+    return;
+  }
+  int best_median = std::numeric_limits<int>::max();
+  std::vector<int> d(descs.size());
+  for (std::size_t i = 0; i < descs.size(); ++i) {
+    for (std::size_t j = 0; j < descs.size(); ++j) d[j] = tracking::hamming(*descs[i], *descs[j]);
+    std::nth_element(d.begin(), d.begin() + static_cast<long>(d.size() / 2), d.end());
+    if (d[d.size() / 2] < best_median) {
+      best_median = d[d.size() / 2];
+      p->descriptor = *descs[i];
+    }
+  }
+}
+
+void Map::update_point_geometry(PointId pid) {
+  MapPoint* p = point(pid);
+  if (!p || p->observations.empty()) return;
   Vec3 normal = Vec3::Zero();
   const Keyframe* ref = nullptr;
   int ref_feature = 0;
   for (const auto& [kid, feature] : p->observations) {
     const Keyframe* kf = keyframe(kid);
     if (!kf) continue;
-    descs.push_back(&kf->features.descriptors[static_cast<std::size_t>(feature)]);
     const Vec3 ray = p->p_w - kf->T_w_c.translation();
     if (ray.norm() > 0.0) normal += ray.normalized();
     if (!ref) {
@@ -121,21 +154,6 @@ void Map::update_point(PointId pid) {
   }
   if (!ref) return;
   if (normal.norm() > 0.0) p->normal = normal.normalized();
-  // The representative descriptor has the least median distance to the others.
-  if (descs.size() <= 2) {
-    p->descriptor = *descs.front();
-  } else {
-    int best_median = std::numeric_limits<int>::max();
-    std::vector<int> d(descs.size());
-    for (std::size_t i = 0; i < descs.size(); ++i) {
-      for (std::size_t j = 0; j < descs.size(); ++j) d[j] = tracking::hamming(*descs[i], *descs[j]);
-      std::nth_element(d.begin(), d.begin() + static_cast<long>(d.size() / 2), d.end());
-      if (d[d.size() / 2] < best_median) {
-        best_median = d[d.size() / 2];
-        p->descriptor = *descs[i];
-      }
-    }
-  }
   const FrameFeatures& f = ref->features;
   const double dist = (p->p_w - ref->T_w_c.translation()).norm();
   const int level = f.keypoints[static_cast<std::size_t>(ref_feature)].level;
@@ -186,26 +204,27 @@ int Map::cull_points(KeyframeId current, const CullingOptions& options) {
 void Map::update_connections(KeyframeId kid, int min_shared) {
   Keyframe* kf = keyframe(kid);
   if (!kf) return;
-  // Every other keyframe once per shared point, sorted and counted in runs: a std::map of
-  // counts cost a node per keyframe and a tree walk per observation (2% of a long run).
-  std::vector<KeyframeId> seen;
-  seen.reserve(kf->point_of_feature.size() * 4);
+  // Shared points per other keyframe, tallied by id (ids are dense) and read back in id order:
+  // a std::map of counts cost a tree walk per observation, and sorting every observation
+  // grew with the square of a revisited place's history.
+  std::vector<int> tally(static_cast<std::size_t>(std::max<KeyframeId>(next_keyframe_, 0)), 0);
+  std::vector<KeyframeId> touched;
   for (PointId pid : kf->point_of_feature) {
     const MapPoint* p = point(pid);
     if (!p) continue;
     for (const auto& [other, feature] : p->observations) {
       (void)feature;
-      if (other != kid) seen.push_back(other);
+      if (other == kid || other < 0) continue;
+      const auto at = static_cast<std::size_t>(other);
+      if (at >= tally.size()) tally.resize(at + 1, 0);
+      if (tally[at]++ == 0) touched.push_back(other);
     }
   }
-  std::sort(seen.begin(), seen.end());
+  std::sort(touched.begin(), touched.end());
   std::vector<std::pair<KeyframeId, int>> counts;
-  for (std::size_t i = 0; i < seen.size();) {
-    std::size_t j = i;
-    while (j < seen.size() && seen[j] == seen[i]) ++j;
-    counts.emplace_back(seen[i], static_cast<int>(j - i));
-    i = j;
-  }
+  counts.reserve(touched.size());
+  for (KeyframeId other : touched)
+    counts.emplace_back(other, tally[static_cast<std::size_t>(other)]);
   for (auto& [other, w] : kf->connections) {
     if (Keyframe* o = keyframe(other)) o->connections.erase(kid);
     (void)w;
