@@ -206,25 +206,32 @@ void Map::update_connections(KeyframeId kid, int min_shared) {
   if (!kf) return;
   // Shared points per other keyframe, tallied by id (ids are dense) and read back in id order:
   // a std::map of counts cost a tree walk per observation, and sorting every observation
-  // grew with the square of a revisited place's history.
-  std::vector<int> tally(static_cast<std::size_t>(std::max<KeyframeId>(next_keyframe_, 0)), 0);
+  // grew with the square of a revisited place's history. A loaded map's ids may be sparse (any
+  // non-negative values): then a hash map tallies them.
+  const auto span = static_cast<std::size_t>(std::max<KeyframeId>(next_keyframe_, 0));
+  const bool dense = span <= 16 * (keyframes_.size() + 64);
+  std::vector<int> tally(dense ? span : 0, 0);
+  std::unordered_map<KeyframeId, int> sparse_tally;
   std::vector<KeyframeId> touched;
+  auto count_of = [&](KeyframeId other) -> int& {
+    if (!dense) return sparse_tally[other];
+    const auto at = static_cast<std::size_t>(other);
+    if (at >= tally.size()) tally.resize(at + 1, 0);
+    return tally[at];
+  };
   for (PointId pid : kf->point_of_feature) {
     const MapPoint* p = point(pid);
     if (!p) continue;
     for (const auto& [other, feature] : p->observations) {
       (void)feature;
       if (other == kid || other < 0) continue;
-      const auto at = static_cast<std::size_t>(other);
-      if (at >= tally.size()) tally.resize(at + 1, 0);
-      if (tally[at]++ == 0) touched.push_back(other);
+      if (count_of(other)++ == 0) touched.push_back(other);
     }
   }
   std::sort(touched.begin(), touched.end());
   std::vector<std::pair<KeyframeId, int>> counts;
   counts.reserve(touched.size());
-  for (KeyframeId other : touched)
-    counts.emplace_back(other, tally[static_cast<std::size_t>(other)]);
+  for (KeyframeId other : touched) counts.emplace_back(other, count_of(other));
   for (auto& [other, w] : kf->connections) {
     if (Keyframe* o = keyframe(other)) o->connections.erase(kid);
     (void)w;

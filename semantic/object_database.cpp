@@ -391,8 +391,11 @@ std::vector<ObjectDatabase::Measurement> ObjectDatabase::measure_all(
       return ray.norm() > 1e-9 ? Vec2(-turn * ray.y(), turn * ray.x()) / ray.norm()
                                : Vec2::Zero().eval();
     };
-    if (det.x_min <= 1.0) m.cut_towards += across_border(0.0, 1.0);
-    if (det.x_max >= d.width - 1.0) m.cut_towards += across_border(d.width - 1.0, -1.0);
+    // A box touching both side borders (an object filling the width) says nothing of where
+    // the rest is: the two directions would add up to one pointing back at the camera.
+    const bool cut_left = det.x_min <= 1.0, cut_right = det.x_max >= d.width - 1.0;
+    if (cut_left != cut_right)
+      m.cut_towards = cut_left ? across_border(0.0, 1.0) : across_border(d.width - 1.0, -1.0);
     if (options_.size_priors) {
       if (const auto prior = footprint_prior(m.label)) {
         m.box = complete_with_prior(m.box, {kf.T_w_c.translation()}, *prior, m.cut_towards);
@@ -435,9 +438,19 @@ void ObjectDatabase::refit(Entry& e) const {
         const auto it = keyframe_poses_.find(o.keyframe_id);
         if (it != keyframe_poses_.end()) viewpoints.push_back(it->second.translation());
       }
-      // Cut in a third of its views or more: the hidden part is past that border.
-      const bool cut = 3 * e.cut_views >= e.object.observations && e.cut_views > 0;
-      b = complete_with_prior(b, viewpoints, *prior, cut ? e.cut_towards : Vec2::Zero());
+      // Cut in a third of its views or more, mostly one way: the hidden part is past that
+      // border (views cut left and right of the object cancel out).
+      Vec2 cut_towards = Vec2::Zero();
+      int cut_views = 0;
+      for (const Observation& o : e.views) {
+        const auto it = keyframe_poses_.find(o.keyframe_id);
+        if (it == keyframe_poses_.end() || o.cut_c.isZero()) continue;
+        cut_towards += (it->second.rotation() * o.cut_c).head<2>();
+        ++cut_views;
+      }
+      const bool cut = cut_views > 0 && 3 * cut_views >= static_cast<int>(e.views.size()) &&
+                       cut_towards.norm() >= 0.5 * cut_views;
+      b = complete_with_prior(b, viewpoints, *prior, cut ? cut_towards : Vec2::Zero());
     }
   }
   // Objects standing on the floor reach down to it: the floor band was cut from the points.
@@ -467,8 +480,6 @@ int ObjectDatabase::merge_duplicates() {
         Entry& gone = b->second;
         for (auto& v : gone.views) keep.views.push_back(std::move(v));
         keep.mean_depth = std::max(keep.mean_depth, gone.mean_depth);
-        keep.cut_towards += gone.cut_towards;
-        keep.cut_views += gone.cut_views;
         keep.object.observations += gone.object.observations;
         keep.object.whole_observations += gone.object.whole_observations;
         keep.object.score_sum += gone.object.score_sum;
@@ -546,11 +557,12 @@ ObjectUpdateStats ObjectDatabase::update(const ObjectKeyframe& kf) {
     o.first_seen = std::min(o.first_seen, kf.stamp);
     o.last_seen = std::max(o.last_seen, kf.stamp);
     match->mean_depth += (m.depth - match->mean_depth) / o.observations;
-    if (m.cut_towards.norm() > 0.0) {
-      match->cut_towards += m.cut_towards.normalized();
-      ++match->cut_views;
-    }
-    match->views.push_back({kf.keyframe_id, std::move(m.points_c)});
+    const Vec3 cut_c = m.cut_towards.isZero()
+                           ? Vec3::Zero()
+                           : Vec3(kf.T_w_c.rotation().transpose() *
+                                  Vec3(m.cut_towards.x(), m.cut_towards.y(), 0.0))
+                                 .normalized();
+    match->views.push_back({kf.keyframe_id, std::move(m.points_c), cut_c});
     if (static_cast<int>(match->views.size()) > options_.max_observations_kept)
       match->views.erase(match->views.begin());
     refit(*match);

@@ -119,14 +119,15 @@ class ObjectDatabase {
   struct Observation {
     std::int64_t keyframe_id = 0;
     std::vector<Eigen::Vector3f> points_c;  // camera frame of that keyframe
+    // Unit direction past the image's left or right border that cut this view (camera frame,
+    // so a corrected keyframe pose turns it too); zero when the view was not cut.
+    Vec3 cut_c = Vec3::Zero();
   };
   struct Entry {
     SemanticObject object;
     std::vector<Observation> views;
     double mean_depth = 0.0;                   // of its measurements, for the floor cut
     std::unordered_set<std::uint64_t> voxels;  // world cells (overlap_voxel) its points occupy
-    Vec2 cut_towards = Vec2::Zero();  // sum of its views' image-border cut directions (world)
-    int cut_views = 0;                // views cut by the image's left or right border
   };
   struct Measurement {
     std::string label;
@@ -136,7 +137,7 @@ class ObjectDatabase {
     UprightBox box;
     double depth = 0.0;  // median camera depth of its cluster
     bool cut = false;    // its surface goes on past the box: a part of something larger
-    Vec2 cut_towards = Vec2::Zero();  // world direction past the image border it touches
+    Vec2 cut_towards = Vec2::Zero();  // world direction past the one side border it touches
   };
 
   void update_floor(const ObjectKeyframe& kf);

@@ -5,8 +5,8 @@
 // of such views can measure the far side. Where every view lies on one side of the box along
 // an axis, the far face along it was never seen; a box thinner there than its class's typical
 // size is grown away from the viewers to that size (object-SLAM size priors, as in CubeSLAM),
-// or past the image border where every view cut it. A measured side is never shrunk and a
-// fully seen object is never changed.
+// or past the image border where its views were cut (ObjectDatabase: a third of them). A measured
+// side is never shrunk and a fully seen object is never changed.
 #include <optional>
 #include <string>
 #include <vector>

@@ -2,6 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <map>
+#include <unordered_map>
+
 namespace kestrel::mapping {
 namespace {
 
@@ -163,6 +166,35 @@ TEST(Map, CovisibilityCountsSharedPoints) {
   const PointId p59 = map.keyframe(k0)->point_of_feature[59];
   map.erase_observation(p59, k0);
   EXPECT_EQ(map.point(p59), nullptr);
+}
+
+// A loaded map may carry any non-negative keyframe ids: a sparse one is tallied as well as a
+// dense one (no table as long as the largest id).
+TEST(Map, CovisibilityWithSparseKeyframeIds) {
+  Map map;
+  const KeyframeId k0 = map.add_keyframe(0, SE3(), grid_features(60, 2.0));
+  map.create_points_from_depth(k0, 60, 10.0);
+  const KeyframeId k1 = map.add_keyframe(1, SE3(), grid_features(60, 2.0));
+  for (int i = 0; i < 40; ++i) map.add_observation(map.keyframe(k0)->point_of_feature[i], k1, i);
+  constexpr KeyframeId kFar = 1'000'000'000'000;
+  std::map<KeyframeId, Keyframe> keyframes = map.keyframes();
+  Keyframe moved = keyframes.at(k1);
+  moved.id = kFar;
+  keyframes.erase(k1);
+  keyframes.emplace(kFar, std::move(moved));
+  std::unordered_map<PointId, MapPoint> points = map.points();
+  for (auto& [id, p] : points) {
+    if (auto it = p.observations.find(k1); it != p.observations.end()) {
+      const int feature = it->second;
+      p.observations.erase(it);
+      p.observations[kFar] = feature;
+    }
+  }
+  Map loaded;
+  loaded.restore(std::move(keyframes), std::move(points));
+  loaded.update_connections(kFar);
+  EXPECT_EQ(loaded.keyframe(kFar)->connections.at(k0), 40);
+  EXPECT_EQ(loaded.keyframe(k0)->connections.at(kFar), 40);
 }
 
 }  // namespace
