@@ -32,7 +32,11 @@ nlohmann::json bench_endurance(const AreaOptions& o) {
   opt.strip_frames = 0;
   opt.memory_sample_s = o.tiny ? 1.0 : 10.0;
   opt.truth_masks = [&source](Timestamp t) { return source.truth_mask(t); };
+  // With --work, the run's own outputs stay there (trajectory.txt, frames.csv, timing.json,
+  // maps): a live run cannot be replayed, so they are all there is to see where it went wrong.
+  if (!o.work_dir.empty()) opt.out_dir = o.work_dir + "/endurance";
   const pipeline::RunSummary s = pipeline::run_sequence(source, opt);
+  if (!opt.out_dir.empty()) std::printf("endurance run's outputs in %s\n", opt.out_dir.c_str());
 
   const auto stage = [&s](const char* name) {
     const auto it = s.stages.find(name);
@@ -78,6 +82,7 @@ nlohmann::json bench_endurance(const AreaOptions& o) {
   nlohmann::json samples = nlohmann::json::array();
   for (const pipeline::MemorySample& m : s.memory) samples.push_back({m.stream_s, m.rss_mib});
   return {{"scenario", scene},
+          {"outputs", opt.out_dir},
           {"duration_s", duration},
           {"wall_seconds", s.wall_seconds},
           {"frames", s.frames},

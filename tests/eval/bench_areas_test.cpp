@@ -43,10 +43,15 @@ TEST(BenchAreas, TinyRunOfEveryAreaWritesFiniteFigures) {
       (kestrel::test::build_dir() / "kestrel").string() +
       " bench --tiny --only dynamic,evaluation,imu,objects,telemetry,video,endurance,memory"
       " --json " +
-      out.string() + " > " + log.string() + " 2>&1";
+      out.string() + " --work " + (dir / "work").string() + " > " + log.string() + " 2>&1";
   ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
   std::ifstream in(out);
   const json j = json::parse(in);
+  // The live run's own outputs stay in the work folder.
+  const fs::path live = j["endurance"]["outputs"].get<std::string>();
+  EXPECT_EQ(live, dir / "work" / "endurance");
+  EXPECT_TRUE(fs::exists(live / "trajectory.txt"));
+  EXPECT_TRUE(fs::exists(live / "frames.csv"));
   EXPECT_EQ(first_non_finite(j, ""), "");
   EXPECT_FALSE(j.contains("runs")) << "accuracy ran though not asked for";
 
