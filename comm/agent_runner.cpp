@@ -22,6 +22,7 @@
 #include "maps/grid_io.hpp"
 #include "maps/map_builder.hpp"
 #include "nav/astar_planner.hpp"
+#include "pipeline/live_feed.hpp"
 #include "pipeline/system.hpp"
 
 namespace kestrel::comm {
@@ -378,11 +379,9 @@ AgentRunSummary run_agent(io::MeasurementSource& source, const AgentRunOptions& 
       telemetry.poses().on_camera_frame(t, wall_clock_ns());
       last_frame_wall = std::chrono::steady_clock::now();
       if (fed_frames + summary.frames_dropped == 0) first_frame_wall = last_frame_wall;
-      // A live camera does not wait: while the tracker still has max_frames_in_flight frames,
-      // this one is not fed (its pose is predicted).
-      drop = options.realtime && options.max_frames_in_flight > 0 &&
-             fed_frames >= telemetry.frames_reported() +
-                               static_cast<std::size_t>(options.max_frames_in_flight);
+      // Not fed while the tracker is busy (its pose is predicted).
+      drop = options.realtime && pipeline::drop_live_frame(fed_frames, telemetry.frames_reported(),
+                                                           options.max_frames_in_flight);
       if (drop) {
         ++summary.frames_dropped;
         telemetry.set_drops(summary.frames_dropped);

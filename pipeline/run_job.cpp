@@ -20,6 +20,7 @@
 #include "eval/trajectory_evaluation.hpp"
 #include "io/kestrel_sequence.hpp"
 #include "io/trajectory_io.hpp"
+#include "pipeline/live_feed.hpp"
 #include "pipeline/process_memory.hpp"
 #include "pipeline/progress.hpp"
 #include "pipeline/system.hpp"
@@ -203,6 +204,7 @@ RunSummary run_sequence(io::MeasurementSource& source, const RunOptions& options
   double next_memory_s = 0.0;
   std::int64_t stream_ns = 0;
   std::size_t fed_frames = 0;
+  const bool live = options.paced && !options.sequential;  // frames may be dropped
   while (auto m = source.next()) {
     const Timestamp stamp = stamp_of(*m);
     if (!first_stamp) first_stamp = stamp;
@@ -218,12 +220,9 @@ RunSummary run_sequence(io::MeasurementSource& source, const RunOptions& options
       summary.memory.push_back({to_seconds(since_first), resident_mib()});
       next_memory_s += options.memory_sample_s;
     }
-    // A live camera does not wait: with the tracker still busy on max_frames_in_flight
-    // frames, this one is dropped (the IMU samples all go in: they are what bridges the gap).
-    const bool live = options.paced && !options.sequential && options.max_frames_in_flight > 0;
+    // The IMU samples all go in: they are what bridges a dropped frame's gap.
     if (live && !std::holds_alternative<ImuSample>(*m) &&
-        fed_frames >=
-            observer.reported() + static_cast<std::size_t>(options.max_frames_in_flight)) {
+        drop_live_frame(fed_frames, observer.reported(), options.max_frames_in_flight)) {
       ++summary.frames;
       ++summary.dropped;
       observer.skip();

@@ -9,6 +9,7 @@
 #include <variant>
 #include <vector>
 
+#include "pipeline/live_feed.hpp"
 #include "pipeline/run_job.hpp"
 #include "sim/live_source.hpp"
 #include "sim/scenario.hpp"
@@ -64,6 +65,14 @@ RunOptions live_options(int max_in_flight) {
   opt.loop_closing = false;
   opt.max_frames_in_flight = max_in_flight;
   return opt;
+}
+
+TEST(LiveRun, AFrameIsDroppedOnlyWithMaxInFlightUnanswered) {
+  EXPECT_FALSE(drop_live_frame(1, 0, 2));
+  EXPECT_TRUE(drop_live_frame(2, 0, 2));
+  EXPECT_FALSE(drop_live_frame(2, 1, 2));
+  EXPECT_TRUE(drop_live_frame(1, 0, 1));
+  EXPECT_FALSE(drop_live_frame(100, 0, 0));  // 0: never
 }
 
 TEST(LiveRun, ACameraFasterThanTheTrackerHasItsSurplusFramesDropped) {
