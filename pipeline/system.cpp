@@ -148,6 +148,7 @@ struct System::Impl {
   std::map<loop::PoseId, Timestamp> keyframe_stamps;
   std::vector<loop::PoseGraphEdge> graph_edges;
   std::size_t loops = 0;
+  std::size_t loops_rejected = 0;
   std::atomic<bool> finished{false};
 
   // Tracking-thread state.
@@ -813,6 +814,12 @@ struct System::Impl {
       const auto match = loop_detector->process(job->view);
       stats.record("loop.detect", ms_since(t0));
       if (match) {
+        const loop::LoopGateResult gate = loop::check_loop_drift(
+            keyframe_poses, match->match, match->query, match->T_match_query, options.loop_gate);
+        if (!gate.plausible) {
+          ++loops_rejected;
+          continue;
+        }
         ++loops;
         graph_edges.push_back(
             {match->match, match->query, match->T_match_query, loop::EdgeKind::kLoop});
@@ -961,6 +968,7 @@ void System::finish() {
   if (impl_->loop_thread.joinable()) impl_->loop_thread.join();
   impl_->correct_with_loops();
   impl_->stats.set_counter("loop.closed", impl_->loops);
+  impl_->stats.set_counter("loop.rejected", impl_->loops_rejected);
   if (impl_->detection_thread.joinable()) impl_->detection_thread.join();
   impl_->stats.set_counter("detection.dropped", impl_->detection_frames.dropped());
   impl_->stats.set_counter("detection.matched", impl_->detections.matched());

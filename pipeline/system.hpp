@@ -23,6 +23,7 @@
 #include "dynamic/dynamic_filter.hpp"
 #include "dynamic/removal_metrics.hpp"
 #include "imu/inertial_predictor.hpp"
+#include "loop/loop_gate.hpp"
 #include "pipeline/stage_stats.hpp"
 #include "semantic/object_database.hpp"
 #include "tracking/tracker.hpp"
@@ -43,6 +44,10 @@ struct SystemOptions {
   std::function<std::optional<SE3>(Timestamp)> initial_T_w_body;
   // Place-recognition vocabulary (kestrel vocab); empty or missing: no loop closing.
   std::string vocabulary = std::string(KESTREL_SOURCE_DIR) + "/config/vocabulary.kvoc";
+  // A verified loop enters the pose graph only when it agrees with the odometry within the
+  // drift the path since the matched keyframe allows (loop/loop_gate.hpp); counted as
+  // loop.rejected otherwise.
+  loop::LoopGateOptions loop_gate;
   std::string load_map;  // map.bin of an earlier session: relocalize in it (multi-session)
   // RGB-D + IMU / stereo + IMU: the IMU predicts each frame's pose for the tracker and carries
   // the pose through a lost track (when the calibration has an IMU). Off: visual only.

@@ -1,0 +1,44 @@
+#include "loop/loop_gate.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <iterator>
+
+namespace kestrel::loop {
+
+double path_length(const std::map<PoseId, SE3>& poses, PoseId from, PoseId to) {
+  if (from > to) std::swap(from, to);
+  auto it = poses.lower_bound(from);
+  double length = 0.0;
+  while (it != poses.end() && it->first < to) {
+    const auto next = std::next(it);
+    if (next == poses.end() || next->first > to) break;
+    length += (next->second.translation() - it->second.translation()).norm();
+    it = next;
+  }
+  return length;
+}
+
+LoopGateResult check_loop_drift(const std::map<PoseId, SE3>& poses, PoseId match, PoseId query,
+                                const SE3& T_match_query, const LoopGateOptions& o) {
+  LoopGateResult r;
+  const auto m = poses.find(match);
+  const auto q = poses.find(query);
+  if (m == poses.end() || q == poses.end()) {
+    r.plausible = false;
+    return r;
+  }
+  const SE3 odometry = m->second.inverse() * q->second;
+  const SE3 d = odometry.inverse() * T_match_query;
+  r.path_m = path_length(poses, match, query);
+  r.translation_m = d.translation().norm();
+  r.rotation_rad = d.so3().angle();
+  r.max_translation_m = o.translation_floor_m + o.translation_per_m * r.path_m;
+  r.max_rotation_rad = o.rotation_floor_rad + o.rotation_per_m_rad * r.path_m;
+  r.plausible = !o.enabled ||
+                (std::isfinite(r.translation_m) && std::isfinite(r.rotation_rad) &&
+                 r.translation_m <= r.max_translation_m && r.rotation_rad <= r.max_rotation_rad);
+  return r;
+}
+
+}  // namespace kestrel::loop
