@@ -34,7 +34,7 @@ struct RunFlags {
   std::string dynamic = "hybrid";
   std::string mode = "auto";
   bool no_loop = false;
-  bool triangulate = false;
+  bool triangulate = true;
   bool half_resolution_flow = false;
   bool inertial_ba = false;
   bool no_gyro_prior = false;
@@ -207,8 +207,9 @@ void setup_run(CLI::App& app) {
       ->check(CLI::IsMember({"auto", "rgbd", "rgbd-imu", "stereo", "stereo-imu"}))
       ->capture_default_str();
   cmd->add_flag("--no-loop", flags->no_loop, "no loop closing (odometry and local map only)");
-  cmd->add_flag("--triangulate", flags->triangulate,
-                "also triangulate map points where depth has none (beyond its range, holes)");
+  cmd->add_flag("--triangulate,!--no-triangulate", flags->triangulate,
+                "triangulate map points from two views where depth has none (beyond its range); "
+                "on by default");
   cmd->add_flag("--inertial-ba", flags->inertial_ba,
                 "visual-inertial local BA: keyframes joined by the IMU's pre-integration");
   cmd->add_flag("--no-gyro-prior", flags->no_gyro_prior,

@@ -45,10 +45,24 @@ double median_depth(const Map& map, const Keyframe& kf) {
   return z[z.size() / 2];
 }
 
-bool usable(const Keyframe& kf, std::size_t i, bool only_without_depth) {
+// The 99th percentile of a range sensor's readings at the keyframe's features; 0 without any.
+double reading_ceiling(const Keyframe& kf) {
+  if (kf.features.on_depth_step.empty()) return 0.0;
+  std::vector<double> z;
+  for (std::size_t i = 0; i < kf.features.size(); ++i) {
+    if (kf.features.has_depth(i)) z.push_back(kf.features.depth[i]);
+  }
+  if (z.empty()) return 0.0;
+  const auto k = static_cast<long>(0.99 * static_cast<double>(z.size() - 1));
+  std::nth_element(z.begin(), z.begin() + k, z.end());
+  return z[static_cast<std::size_t>(k)];
+}
+
+bool usable(const Keyframe& kf, std::size_t i, const TriangulationOptions& o) {
   return kf.point_of_feature[i] == kNoPoint &&
          kf.features.status[i] == tracking::FeatureStatus::kStatic &&
-         !(only_without_depth && kf.features.has_depth(i));
+         !(o.only_without_depth && kf.features.has_depth(i)) &&
+         !(o.skip_depth_steps && kf.features.is_on_depth_step(i));
 }
 
 }  // namespace
@@ -58,10 +72,14 @@ int triangulate_new_points(Map& map, KeyframeId kid, const PinholeCamera& cam,
   const Keyframe* k1 = map.keyframe(kid);
   if (!k1) return 0;
   const tracking::FrameFeatures& f1 = k1->features;
+  // A third view may confirm with a feature that has depth of its own.
+  TriangulationOptions third_view = o;
+  third_view.only_without_depth = false;
   const SE3 T1 = k1->T_c_w();
   const Vec3 c1 = k1->T_w_c.translation();
   const double cos_min_parallax = std::cos(o.min_parallax_deg * M_PI / 180.0);
   const double z1 = median_depth(map, *k1);
+  const double min_z1 = o.min_depth_past_readings * reading_ceiling(*k1);
   const Mat3 K = cam.K();
   const Mat3 Kinv = K.inverse();
   int created = 0;
@@ -73,13 +91,14 @@ int triangulate_new_points(Map& map, KeyframeId kid, const PinholeCamera& cam,
     const SE3 T2 = k2->T_c_w();
     const Vec3 c2 = k2->T_w_c.translation();
     const double baseline = (c2 - c1).norm();
+    const double min_z2 = o.min_depth_past_readings * reading_ceiling(*k2);
     if (z1 > 0.0 && baseline / z1 < o.min_baseline_ratio) continue;
     // Fundamental matrix from keyframe 1's pixels to keyframe 2's: l2 = F21 x1.
     const SE3 T21 = T2 * T1.inverse();
     const Mat3 F21 = Kinv.transpose() * skew(T21.translation()) * T21.rotation() * Kinv;
     std::vector<int> cand2;
     for (std::size_t j = 0; j < f2.size(); ++j) {
-      if (usable(*k2, j, o.only_without_depth)) cand2.push_back(static_cast<int>(j));
+      if (usable(*k2, j, o)) cand2.push_back(static_cast<int>(j));
     }
     if (cand2.empty()) continue;
     // The epipole in keyframe 2: a match too close to it has no parallax along its line.
@@ -88,7 +107,7 @@ int triangulate_new_points(Map& map, KeyframeId kid, const PinholeCamera& cam,
     const Vec2 epipole = epipole_in_front ? Vec2(e2.head<2>() / e2.z()) : Vec2::Zero();
     std::vector<char> taken(f2.size(), 0);
     for (std::size_t i = 0; i < f1.size(); ++i) {
-      if (!usable(*k1, i, o.only_without_depth)) continue;
+      if (!usable(*k1, i, o)) continue;
       // Re-read: a point created for i with an earlier neighbour.
       if (map.keyframe(kid)->point_of_feature[i] != kNoPoint) continue;
       const Vec2& u1 = f1.keypoints[i].un;
@@ -129,6 +148,7 @@ int triangulate_new_points(Map& map, KeyframeId kid, const PinholeCamera& cam,
       if (!X.allFinite()) continue;
       const Vec3 x1c = T1 * X, x2c = T2 * X;
       if (x1c.z() <= 0.0 || x2c.z() <= 0.0 || x1c.norm() > o.max_distance) continue;
+      if (x1c.z() < min_z1 || x2c.z() < min_z2) continue;
       const auto reproj_ok = [&](const Vec3& xc, const Vec2& un, double sigma2) {
         const Vec2 p(cam.fx * xc.x() / xc.z() + cam.cx, cam.fy * xc.y() / xc.z() + cam.cy);
         return (p - un).squaredNorm() <= o.reprojection_chi2 * sigma2;
@@ -160,7 +180,7 @@ int triangulate_new_points(Map& map, KeyframeId kid, const PinholeCamera& cam,
           for (std::size_t j = 0; j < f3.size(); ++j) {
             const auto& kp3 = f3.keypoints[j];
             if ((kp3.un - p3).squaredNorm() > r * r || std::abs(kp3.level - kp1.level) > 1 ||
-                !usable(*k3, j, false)) {
+                !usable(*k3, j, third_view)) {
               continue;
             }
             const int d = tracking::hamming(f1.descriptors[i], f3.descriptors[j]);

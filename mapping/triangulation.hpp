@@ -21,6 +21,18 @@ struct TriangulationOptions {
   double min_baseline_ratio = 0.01;  // baseline / median scene depth of the keyframe
   double max_distance = 80.0;        // metres from the keyframe: farther is no better than a ray
   bool only_without_depth = true;    // features with a depth reading get their point from it
+  // Features on a depth step (tracking::FrameFeatures::on_depth_step) are not triangulated.
+  bool skip_depth_steps = true;
+  // With a range sensor's depth, the features left to triangulate have no reading at or around
+  // them: what they see lies beyond the sensor's range. A point triangulated nearer than this
+  // share of the keyframe's farthest readings (their 99th percentile, about the sensor's range)
+  // contradicts the sensor: it comes from a wrong match along the epipolar line, kept because
+  // its error pushed a far point's small parallax over min_parallax_deg. Measured on cafe seed
+  // 3 against the room's walls (ray cast from the true pose): without the check points floated
+  // at 5-8 m in front of a wall 11 m away, and some 0.1-0.6 m in front of the camera; with it,
+  // 85% of the points lie within 10% of the true range, and the 60 s run's APE without loop
+  // closure is 4.5 mm (without triangulation, 12.6 mm). 0: no check.
+  double min_depth_past_readings = 0.9;
   // Keyframes that must see the point (a match near its projection) before it is created: two
   // are the pair; a third rules out most movers that happen to fit one epipolar line.
   int min_views = 3;

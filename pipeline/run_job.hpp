@@ -28,7 +28,7 @@ struct RunOptions {
   // A mode the dataset cannot give (stereo of an RGB-D sequence, IMU without one) is an error.
   std::string mode = "auto";
   bool loop_closing = true;
-  bool triangulate = false;           // TrackerOptions::triangulate
+  bool triangulate = true;            // TrackerOptions::triangulate
   bool half_resolution_flow = false;  // dynamic::use_half_resolution_flow
   bool inertial_ba = false;           // SystemOptions::inertial_ba
   bool gyro_rotation_prior = true;    // SystemOptions::gyro_rotation_prior

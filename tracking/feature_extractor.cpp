@@ -92,6 +92,8 @@ Vec2 level0_position(const cv::KeyPoint& k, int width, int height, float scale_f
 // Corners often sit on a silhouette, where the pixel under the keypoint may belong to either
 // surface: a map point seeded there can be metres off. A corner whose 3x3 neighbourhood spans
 // a depth step (or a hole) gets no depth and is tracked as a bearing only.
+constexpr int kOutlineRadiusPx = 3;
+
 bool depth_is_smooth(const Image& depth, int u, int v, double raw, double ratio) {
   if (ratio <= 0.0) return true;
   const double tol = ratio * raw;
@@ -104,6 +106,22 @@ bool depth_is_smooth(const Image& depth, int u, int v, double raw, double ratio)
     }
   }
   return true;
+}
+
+// Whether any in-range reading lies within `radius` pixels of (u, v) (sampled every `radius`
+// pixels): a keypoint without depth of its own next to one sits on an object's outline, where
+// sensors leave holes, not beyond the sensor's range.
+bool depth_reading_near(const Image& depth, int u, int v, int radius, double min_raw,
+                        double max_raw) {
+  for (int dv = -radius; dv <= radius; dv += radius) {
+    const int y = std::clamp(v + dv, 0, depth.height - 1);
+    const std::uint16_t* row = depth.row<std::uint16_t>(y);
+    for (int du = -radius; du <= radius; du += radius) {
+      const int x = std::clamp(u + du, 0, depth.width - 1);
+      if (row[x] >= min_raw && row[x] <= max_raw) return true;
+    }
+  }
+  return false;
 }
 
 // A dim, low-contrast image (a dark corridor, an underexposed frame) is stretched linearly
@@ -222,6 +240,7 @@ FrameFeatures FeatureExtractor::extract(const Image& image, const Image* ignore,
   f.descriptors.resize(n);
   f.depth.assign(n, 0.0);
   f.sensor_depth.assign(n, 0.0);
+  if (depth && !depth->empty()) f.on_depth_step.assign(n, 0);
   f.points_c.assign(n, Vec3::Zero());
   f.status.assign(n, FeatureStatus::kStatic);
   const bool distorted = camera_.model != DistortionModel::kNone;
@@ -247,6 +266,10 @@ FrameFeatures FeatureExtractor::extract(const Image& image, const Image* ignore,
           depth_is_smooth(*depth, u, v, z * depth_scale, options_.edge_depth_ratio)) {
         f.depth[i] = z;
         f.points_c[i] = z * ray;
+      } else if (depth_reading_near(*depth, u, v, kOutlineRadiusPx,
+                                    options_.min_depth * depth_scale,
+                                    options_.max_depth * depth_scale)) {
+        f.on_depth_step[i] = 1;
       }
     }
   }

@@ -19,6 +19,7 @@ void FrameFeatures::retain(const std::vector<std::uint8_t>& keep) {
     descriptors[out] = descriptors[i];
     depth[out] = depth[i];
     if (sensor_depth.size() == keep.size()) sensor_depth[out] = sensor_depth[i];
+    if (on_depth_step.size() == keep.size()) on_depth_step[out] = on_depth_step[i];
     points_c[out] = points_c[i];
     status[out] = status[i];
     ++out;
@@ -27,6 +28,7 @@ void FrameFeatures::retain(const std::vector<std::uint8_t>& keep) {
   descriptors.resize(out);
   depth.resize(out);
   if (sensor_depth.size() == keep.size()) sensor_depth.resize(out);
+  if (on_depth_step.size() == keep.size()) on_depth_step.resize(out);
   points_c.resize(out);
   status.resize(out);
   build_grid();

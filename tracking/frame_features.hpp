@@ -39,12 +39,21 @@ struct FrameFeatures {
   // silhouettes are where their features are), map points must not be seeded from it. May be
   // empty: the System hands it to the filter, and keyframes do not keep it.
   std::vector<double> sensor_depth;
+  // 1 where the keypoint has no depth but the sensor has readings at or around it: it sits on a
+  // depth step or a hole at an object's outline (sensors leave those), not beyond the sensor's
+  // range. Its patch spans a foreground edge and what lies behind it, which move apart as the
+  // camera moves: no fixed 3D point to triangulate. Empty when depth did not come from a range
+  // sensor's image (stereo, monocular).
+  std::vector<std::uint8_t> on_depth_step;
   // Camera-frame point from depth (meaningful only where depth > 0).
   std::vector<Vec3> points_c;
   std::vector<FeatureStatus> status;
 
   std::size_t size() const { return keypoints.size(); }
   bool has_depth(std::size_t i) const { return depth[i] > 0.0; }
+  bool is_on_depth_step(std::size_t i) const {
+    return i < on_depth_step.size() && on_depth_step[i] != 0;
+  }
 
   // Scale of a pyramid level relative to level 0, and its squared value (the variance of a
   // keypoint position in level-0 pixels grows with it).

@@ -78,13 +78,15 @@ struct TrackerOptions {
   int min_frames_between_keyframes = 0;
   double close_depth = 3.0;  // metres: "close" points are reliable for new map points
   int min_new_points = 100;  // per keyframe, nearest first, even beyond close_depth
-  // Features depth does not place (beyond its range, holes) are triangulated with the new
-  // keyframe's covisible keyframes (mapping/triangulation.hpp). Off by default: 60 s runs
-  // (kestrel run --triangulate) gain where depth runs out -- market with YOLO and hybrid
-  // rejection 1343 -> 1800 of 1801 frames tracked, APE 0.184 -> 0.064 m; uav-zigzag without
-  // movers 0.200 -> 0.046 m; with its walkers 0.313 -> 0.318 m -- but lose on cafe (0.011 ->
-  // 0.026 m) and in the dark (corridor-dark 0.72 -> 1.45 m).
-  bool triangulate = false;
+  // Features depth does not place (beyond its range) are triangulated with the new keyframe's
+  // covisible keyframes (mapping/triangulation.hpp): where depth runs out the map goes on.
+  // 60 s runs, three draws per scene (APE in metres, off -> on; loop gate in both):
+  // market 0.134 0.181 0.126 -> 0.045 0.041 0.025 (lost frames 229 202 114 -> 0 45 8);
+  // cafe 0.015 0.011 0.007 -> 0.016 0.009 0.003; uav-zigzag 0.243 0.066 0.220 -> 0.227 0.206
+  // 0.258; ugv-loop 0.008 -> 0.018; corridor-dark (lost either way) 1.56 -> 3.03.
+  // Before the outline and sensor-range checks of mapping::TriangulationOptions, and the loop
+  // gate, it cost cafe (0.011 -> 0.38 m on one draw). kestrel run --no-triangulate: off.
+  bool triangulate = true;
   mapping::TriangulationOptions triangulation;
   // Keyframe culling (ORB-SLAM's local mapping): with each new keyframe, a covisible keyframe
   // whose close points are this redundant (Map::redundancy, seen by keyframe_cull_observers

@@ -111,6 +111,47 @@ TEST(Triangulation, TwoViewsAloneTakeAMoverAlongTheEpipolarLineForAPoint) {
   EXPECT_GT(movers_made, kMovers / 2);  // why the third view is asked for by default
 }
 
+// With a range sensor's depth (FrameFeatures::on_depth_step set), features on an object's
+// outline are not triangulated, and a point nearer than the readings reach is refused.
+void mark_range_sensor(World& w, bool far_on_outline) {
+  for (KeyframeId k : w.kfs) {
+    auto& f = w.map.keyframe(k)->features;
+    f.on_depth_step.assign(f.size(), 0);
+    if (far_on_outline) {
+      for (int i = 0; i < kFar; ++i) f.on_depth_step[static_cast<std::size_t>(kAnchors + i)] = 1;
+    }
+  }
+}
+
+TEST(Triangulation, FarPointsBeyondTheReadingsAreKept) {
+  World w = make_world(0.5);
+  mark_range_sensor(w, false);  // readings reach 3 m (the anchors); the far points lie beyond
+  EXPECT_GE(triangulate_new_points(w.map, w.kfs[2], w.cam), kFar * 8 / 10);
+}
+
+TEST(Triangulation, OutlineFeaturesAreNotTriangulated) {
+  World w = make_world(0.5);
+  mark_range_sensor(w, true);
+  EXPECT_EQ(triangulate_new_points(w.map, w.kfs[2], w.cam), 0);
+  TriangulationOptions all;
+  all.skip_depth_steps = false;
+  EXPECT_GE(triangulate_new_points(w.map, w.kfs[2], w.cam, all), kFar * 8 / 10);
+}
+
+TEST(Triangulation, PointsNearerThanTheSensorsReadingsAreRefused) {
+  World w = make_world(0.5);
+  mark_range_sensor(w, false);
+  // Readings now reach 35 m: a sensor that saw nothing at 20-30 m says nothing is there.
+  for (KeyframeId k : w.kfs) {
+    auto& f = w.map.keyframe(k)->features;
+    for (int i = 0; i < kAnchors; ++i) f.depth[static_cast<std::size_t>(i)] = 35.0;
+  }
+  EXPECT_EQ(triangulate_new_points(w.map, w.kfs[2], w.cam), 0);
+  TriangulationOptions unchecked;
+  unchecked.min_depth_past_readings = 0.0;
+  EXPECT_GE(triangulate_new_points(w.map, w.kfs[2], w.cam, unchecked), kFar * 8 / 10);
+}
+
 TEST(Triangulation, NoParallaxNoPoints) {
   World w = make_world(0.01);  // 1 cm baselines, points 20-30 m away: far below a degree
   EXPECT_EQ(triangulate_new_points(w.map, w.kfs[2], w.cam), 0);

@@ -189,6 +189,44 @@ TEST(FeatureExtractor, MaxDepthRejectsFarPoints) {
   EXPECT_LT(with_depth, all_depth);
 }
 
+// A keypoint without depth next to the sensor's readings sits on an object's outline (a depth
+// step or the holes a sensor leaves there), which triangulation must not take for a point; one
+// with no reading anywhere around it sees beyond the sensor's range.
+TEST(FeatureExtractor, MarksFeaturesOnDepthOutlines) {
+  FeatureExtractorOptions o;
+  o.max_depth = 3.0;  // the TUM frame's far wall becomes "beyond range"
+  const FeatureExtractor ex(tum_camera(), o);
+  const RgbdFrame frame = tum_frame();
+  const FrameFeatures f = ex.extract(frame);
+  ASSERT_EQ(f.on_depth_step.size(), f.size());
+  auto reading_within = [&](const Vec2& px, int r) {
+    const int u = static_cast<int>(std::lround(px.x())), v = static_cast<int>(std::lround(px.y()));
+    for (int y = std::max(0, v - r); y <= std::min(frame.depth.height - 1, v + r); ++y) {
+      for (int x = std::max(0, u - r); x <= std::min(frame.depth.width - 1, u + r); ++x) {
+        const double z = frame.depth.row<std::uint16_t>(y)[x] / frame.depth_scale;
+        if (z >= o.min_depth && z <= o.max_depth) return true;
+      }
+    }
+    return false;
+  };
+  int outline = 0, beyond = 0;
+  for (std::size_t i = 0; i < f.size(); ++i) {
+    if (f.has_depth(i)) {
+      EXPECT_EQ(f.on_depth_step[i], 0) << i;
+    } else if (f.on_depth_step[i]) {
+      ++outline;
+      EXPECT_TRUE(reading_within(f.keypoints[i].px, 3)) << i;
+    } else {
+      ++beyond;
+      EXPECT_FALSE(reading_within(f.keypoints[i].px, 0)) << i;
+    }
+  }
+  EXPECT_GT(outline, 20);
+  EXPECT_GT(beyond, 20);
+  // Without a depth image nothing is known: the vector stays empty.
+  EXPECT_TRUE(ex.extract(frame.color).on_depth_step.empty());
+}
+
 TEST(FeatureExtractor, IgnoreMaskKeepsFeaturesOut) {
   const FeatureExtractor ex(tum_camera());
   const RgbdFrame frame = tum_frame();
@@ -216,6 +254,7 @@ TEST(FeatureExtractor, RetainDropsByIndexAndKeepsArraysAligned) {
     EXPECT_EQ(f.descriptors[j], orig.descriptors[i]);
     EXPECT_EQ(f.depth[j], orig.depth[i]);
     EXPECT_EQ(f.sensor_depth[j], orig.sensor_depth[i]);
+    EXPECT_EQ(f.on_depth_step[j], orig.on_depth_step[i]);
     ++j;
   }
   EXPECT_EQ(j, f.size());
