@@ -93,6 +93,7 @@ Vec2 level0_position(const cv::KeyPoint& k, int width, int height, float scale_f
 // surface: a map point seeded there can be metres off. A corner whose 3x3 neighbourhood spans
 // a depth step (or a hole) gets no depth and is tracked as a bearing only.
 constexpr int kOutlineRadiusPx = 3;
+static_assert(kOutlineRadiusPx > 0);
 
 bool depth_is_smooth(const Image& depth, int u, int v, double raw, double ratio) {
   if (ratio <= 0.0) return true;
@@ -108,15 +109,16 @@ bool depth_is_smooth(const Image& depth, int u, int v, double raw, double ratio)
   return true;
 }
 
-// Whether any in-range reading lies within `radius` pixels of (u, v) (sampled every `radius`
-// pixels): a keypoint without depth of its own next to one sits on an object's outline, where
-// sensors leave holes, not beyond the sensor's range.
+// Whether an in-range reading lies at (u, v) or `radius` pixels from it along a row, a column
+// or a diagonal (a 3x3 grid of samples): a keypoint without depth of its own next to one sits on an
+// object's outline, where sensors leave holes, not beyond the sensor's range.
 bool depth_reading_near(const Image& depth, int u, int v, int radius, double min_raw,
                         double max_raw) {
-  for (int dv = -radius; dv <= radius; dv += radius) {
+  const int step = std::max(1, radius);
+  for (int dv = -radius; dv <= radius; dv += step) {
     const int y = std::clamp(v + dv, 0, depth.height - 1);
     const std::uint16_t* row = depth.row<std::uint16_t>(y);
-    for (int du = -radius; du <= radius; du += radius) {
+    for (int du = -radius; du <= radius; du += step) {
       const int x = std::clamp(u + du, 0, depth.width - 1);
       if (row[x] >= min_raw && row[x] <= max_raw) return true;
     }

@@ -43,7 +43,9 @@ struct FrameFeatures {
   // depth step or a hole at an object's outline (sensors leave those), not beyond the sensor's
   // range. Its patch spans a foreground edge and what lies behind it, which move apart as the
   // camera moves: no fixed 3D point to triangulate. Empty when depth did not come from a range
-  // sensor's image (stereo, monocular).
+  // sensor's image (stereo, monocular), and in keyframes loaded from map.bin (not saved: a
+  // loaded keyframe paired with a new one is triangulated without the outline and range checks
+  // on its side).
   std::vector<std::uint8_t> on_depth_step;
   // Camera-frame point from depth (meaningful only where depth > 0).
   std::vector<Vec3> points_c;

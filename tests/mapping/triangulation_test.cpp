@@ -150,6 +150,14 @@ TEST(Triangulation, PointsNearerThanTheSensorsReadingsAreRefused) {
   TriangulationOptions unchecked;
   unchecked.min_depth_past_readings = 0.0;
   EXPECT_GE(triangulate_new_points(w.map, w.kfs[2], w.cam, unchecked), kFar * 8 / 10);
+  // Depth that is not a range sensor's (stereo: on_depth_step empty) says nothing of what lies
+  // where it has none.
+  World stereo = make_world(0.5);
+  for (KeyframeId k : stereo.kfs) {
+    auto& f = stereo.map.keyframe(k)->features;
+    for (int i = 0; i < kAnchors; ++i) f.depth[static_cast<std::size_t>(i)] = 35.0;
+  }
+  EXPECT_GE(triangulate_new_points(stereo.map, stereo.kfs[2], stereo.cam), kFar * 8 / 10);
 }
 
 TEST(Triangulation, NoParallaxNoPoints) {
