@@ -41,4 +41,9 @@ LoopGateResult check_loop_drift(const std::map<PoseId, SE3>& poses, PoseId match
   return r;
 }
 
+bool spans_restart(const std::set<PoseId>& restarts, PoseId a, PoseId b) {
+  const auto r = restarts.upper_bound(std::min(a, b));
+  return r != restarts.end() && *r <= std::max(a, b);
+}
+
 }  // namespace kestrel::loop

@@ -10,6 +10,7 @@
 // over 108 m), so a loop is kept when its discrepancy lies within a floor plus a share of the
 // path between the two keyframes.
 #include <map>
+#include <set>
 
 #include "core/se3.hpp"
 #include "loop/pose_graph.hpp"
@@ -41,5 +42,10 @@ double path_length(const std::map<PoseId, SE3>& poses, PoseId from, PoseId to);
 // A pose missing from `poses` makes the loop implausible.
 LoopGateResult check_loop_drift(const std::map<PoseId, SE3>& poses, PoseId match, PoseId query,
                                 const SE3& T_match_query, const LoopGateOptions& options = {});
+
+// Whether a keyframe in (min(a, b), max(a, b)] restarted the local map after a lost track. Across
+// such a restart the odometry does not know how far the body went unseen, so it cannot judge a
+// loop: only the loop can say.
+bool spans_restart(const std::set<PoseId>& restarts, PoseId a, PoseId b);
 
 }  // namespace kestrel::loop

@@ -9,7 +9,9 @@
 #include <filesystem>
 #include <map>
 #include <mutex>
+#include <set>
 #include <thread>
+#include <unordered_set>
 
 #include "detect/dynamic_classes.hpp"
 #include "imu/inertial_local_ba.hpp"
@@ -54,6 +56,9 @@ struct LoopJob {
   loop::PlaceView view;
   Timestamp t = 0;
   SE3 T_w_c;
+  // The keyframe restarted the local map after a lost track (bridged at the IMU's pose, or
+  // restarted at the last one): the odometry jumps here, by however far the body went unseen.
+  bool after_restart = false;
   // The tracker culled keyframe view.id: drop its place (its pose-graph node stays, so loop
   // corrections still move what was anchored to it).
   bool forget = false;
@@ -149,6 +154,8 @@ struct System::Impl {
   std::vector<loop::PoseGraphEdge> graph_edges;
   std::size_t loops = 0;
   std::size_t loops_rejected = 0;
+  std::set<loop::PoseId> restarts;  // loop thread: keyframes that restarted the local map
+  std::unordered_set<mapping::KeyframeId> restart_keyframes;  // tracking thread, until queued
   std::atomic<bool> finished{false};
 
   // Tracking-thread state.
@@ -446,6 +453,7 @@ struct System::Impl {
 
   void forget_place(mapping::KeyframeId id) {
     std::erase(awaiting_ba, id);  // its BA result finds no keyframe
+    restart_keyframes.erase(id);
     if (!loop_detector) return;
     LoopJob job;
     job.view.id = id;
@@ -469,6 +477,7 @@ struct System::Impl {
       job.view.has_point.push_back(ff.has_depth(i) ? 1 : 0);
     }
     job.view.neighbours = tracker.map().covisible(kf->id, 10);
+    job.after_restart = restart_keyframes.erase(id) > 0;
     loop_jobs.push(std::move(job));
   }
 
@@ -626,6 +635,7 @@ struct System::Impl {
             ? tracker.track(std::move(features), *prior, &keep)
             : tracker.track(std::move(features), predicted, &keep);
     stats.record("tracking", ms_since(t0));
+    if (tr.new_keyframe && tr.bridged) restart_keyframes.insert(tr.keyframe_id);
     if (tr.new_keyframe) {
       kf_gyro_from = tr.keyframe_id;
       kf_gyro_R = SO3();
@@ -811,12 +821,13 @@ struct System::Impl {
       }
       previous = id;
       const auto t0 = Clock::now();
+      if (job->after_restart) restarts.insert(id);
       const auto match = loop_detector->process(job->view);
       stats.record("loop.detect", ms_since(t0));
       if (match) {
         const loop::LoopGateResult gate = loop::check_loop_drift(
             keyframe_poses, match->match, match->query, match->T_match_query, options.loop_gate);
-        if (!gate.plausible) {
+        if (!gate.plausible && !loop::spans_restart(restarts, match->match, match->query)) {
           ++loops_rejected;
           continue;
         }

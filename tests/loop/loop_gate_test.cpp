@@ -75,5 +75,16 @@ TEST(LoopGate, DisabledKeepsEveryLoopAndUnknownPosesAreRejected) {
   EXPECT_FALSE(check_loop_drift(poses, 0, 7, SE3()).plausible);
 }
 
+TEST(LoopGate, ARestartBetweenTheKeyframesIsSpanned) {
+  const std::set<PoseId> restarts = {5, 9};
+  EXPECT_TRUE(spans_restart(restarts, 2, 5));  // the restart keyframe itself: the jump is into it
+  EXPECT_TRUE(spans_restart(restarts, 7, 3));
+  EXPECT_TRUE(spans_restart(restarts, 6, 12));
+  EXPECT_FALSE(spans_restart(restarts, 5, 8));  // from the restart on, the odometry is whole
+  EXPECT_FALSE(spans_restart(restarts, 1, 4));
+  EXPECT_FALSE(spans_restart(restarts, 10, 20));
+  EXPECT_FALSE(spans_restart({}, 0, 100));
+}
+
 }  // namespace
 }  // namespace kestrel::loop
