@@ -31,31 +31,39 @@ Mat3 skew(const Vec3& v) {
   return m;
 }
 
+// Depths measured at the keyframe's features (appended to z).
+void append_feature_depths(const Keyframe& kf, std::vector<double>& z) {
+  for (std::size_t i = 0; i < kf.features.size(); ++i) {
+    if (kf.features.has_depth(i)) z.push_back(kf.features.depth[i]);
+  }
+}
+
+// The k-th smallest of z, k = rank(z.size()); 0 for an empty z. Reorders z.
+template <typename Rank>
+double nth_value(std::vector<double>& z, Rank rank) {
+  if (z.empty()) return 0.0;
+  const std::size_t k = rank(z.size());
+  std::nth_element(z.begin(), z.begin() + static_cast<long>(k), z.end());
+  return z[k];
+}
+
 double median_depth(const Map& map, const Keyframe& kf) {
   std::vector<double> z;
   const SE3 T_c_w = kf.T_c_w();
   for (PointId p : kf.point_of_feature) {
     if (const MapPoint* mp = map.point(p)) z.push_back((T_c_w * mp->p_w).z());
   }
-  for (std::size_t i = 0; i < kf.features.size(); ++i) {
-    if (kf.features.has_depth(i)) z.push_back(kf.features.depth[i]);
-  }
-  if (z.empty()) return 0.0;
-  std::nth_element(z.begin(), z.begin() + static_cast<long>(z.size() / 2), z.end());
-  return z[z.size() / 2];
+  append_feature_depths(kf, z);
+  return nth_value(z, [](std::size_t n) { return n / 2; });
 }
 
 // The 99th percentile of a range sensor's readings at the keyframe's features; 0 without any.
 double reading_ceiling(const Keyframe& kf) {
   if (kf.features.on_depth_step.empty()) return 0.0;
   std::vector<double> z;
-  for (std::size_t i = 0; i < kf.features.size(); ++i) {
-    if (kf.features.has_depth(i)) z.push_back(kf.features.depth[i]);
-  }
-  if (z.empty()) return 0.0;
-  const auto k = static_cast<long>(0.99 * static_cast<double>(z.size() - 1));
-  std::nth_element(z.begin(), z.begin() + k, z.end());
-  return z[static_cast<std::size_t>(k)];
+  append_feature_depths(kf, z);
+  return nth_value(
+      z, [](std::size_t n) { return static_cast<std::size_t>(0.99 * static_cast<double>(n - 1)); });
 }
 
 bool usable(const Keyframe& kf, std::size_t i, const TriangulationOptions& o) {
@@ -91,8 +99,8 @@ int triangulate_new_points(Map& map, KeyframeId kid, const PinholeCamera& cam,
     const SE3 T2 = k2->T_c_w();
     const Vec3 c2 = k2->T_w_c.translation();
     const double baseline = (c2 - c1).norm();
-    const double min_z2 = o.min_depth_past_readings * reading_ceiling(*k2);
     if (z1 > 0.0 && baseline / z1 < o.min_baseline_ratio) continue;
+    const double min_z2 = o.min_depth_past_readings * reading_ceiling(*k2);
     // Fundamental matrix from keyframe 1's pixels to keyframe 2's: l2 = F21 x1.
     const SE3 T21 = T2 * T1.inverse();
     const Mat3 F21 = Kinv.transpose() * skew(T21.translation()) * T21.rotation() * Kinv;

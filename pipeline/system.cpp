@@ -155,11 +155,12 @@ struct System::Impl {
   std::size_t loops = 0;
   std::size_t loops_rejected = 0;
   std::set<loop::PoseId> restarts;  // loop thread: keyframes that restarted the local map
-  std::unordered_set<mapping::KeyframeId> restart_keyframes;  // tracking thread, until queued
   std::atomic<bool> finished{false};
 
   // Tracking-thread state.
   bool world_initialized = false;
+  // Keyframes that restarted the local map, until their place goes to the loop thread.
+  std::unordered_set<mapping::KeyframeId> restart_keyframes;
   Image prev_gray;
   dynamic::FlowPyramid prev_pyramid;  // prev_gray's, kept from the filter's last call
   Image prev_depth;  // for the filter's depth-change test (a mover walking at the camera)
@@ -462,10 +463,12 @@ struct System::Impl {
   }
 
   void push_loop_job(mapping::KeyframeId id) {
+    const bool after_restart = restart_keyframes.erase(id) > 0;
     if (!loop_detector) return;
     const mapping::Keyframe* kf = tracker.map().keyframe(id);
     if (!kf) return;
     LoopJob job;
+    job.after_restart = after_restart;
     job.t = kf->t;
     job.T_w_c = kf->T_w_c;
     job.view.id = kf->id;
@@ -477,7 +480,6 @@ struct System::Impl {
       job.view.has_point.push_back(ff.has_depth(i) ? 1 : 0);
     }
     job.view.neighbours = tracker.map().covisible(kf->id, 10);
-    job.after_restart = restart_keyframes.erase(id) > 0;
     loop_jobs.push(std::move(job));
   }
 
