@@ -32,9 +32,9 @@ Mat3 skew(const Vec3& v) {
 }
 
 // Depths measured at the keyframe's features (appended to z).
-void append_feature_depths(const Keyframe& kf, std::vector<double>& z) {
-  for (std::size_t i = 0; i < kf.features.size(); ++i) {
-    if (kf.features.has_depth(i)) z.push_back(kf.features.depth[i]);
+void append_feature_depths(const tracking::FrameFeatures& f, std::vector<double>& z) {
+  for (std::size_t i = 0; i < f.size(); ++i) {
+    if (f.has_depth(i)) z.push_back(f.depth[i]);
   }
 }
 
@@ -53,60 +53,103 @@ double median_depth(const Map& map, const Keyframe& kf) {
   for (PointId p : kf.point_of_feature) {
     if (const MapPoint* mp = map.point(p)) z.push_back((T_c_w * mp->p_w).z());
   }
-  append_feature_depths(kf, z);
+  append_feature_depths(kf.features, z);
   return nth_value(z, [](std::size_t n) { return n / 2; });
 }
 
-// The 99th percentile of a range sensor's readings at the keyframe's features; 0 without any.
-double reading_ceiling(const Keyframe& kf) {
-  if (kf.features.on_depth_step.empty()) return 0.0;
+// The 99th percentile of a range sensor's readings at the view's features; 0 without any.
+double reading_ceiling(const tracking::FrameFeatures& f) {
+  if (f.on_depth_step.empty()) return 0.0;
   std::vector<double> z;
-  append_feature_depths(kf, z);
+  append_feature_depths(f, z);
   return nth_value(
       z, [](std::size_t n) { return static_cast<std::size_t>(0.99 * static_cast<double>(n - 1)); });
 }
 
-bool usable(const Keyframe& kf, std::size_t i, const TriangulationOptions& o) {
-  return kf.point_of_feature[i] == kNoPoint &&
-         kf.features.status[i] == tracking::FeatureStatus::kStatic &&
-         !(o.only_without_depth && kf.features.has_depth(i)) &&
-         !(o.skip_depth_steps && kf.features.is_on_depth_step(i));
+// has_point: the view's features that observe a point, as the search has left them so far.
+bool usable(const TriangulationView& v, const std::vector<std::uint8_t>& has_point, std::size_t i,
+            const TriangulationOptions& o) {
+  return !has_point[i] && v.features.status[i] == tracking::FeatureStatus::kStatic &&
+         !(o.only_without_depth && v.features.has_depth(i)) &&
+         !(o.skip_depth_steps && v.features.is_on_depth_step(i));
+}
+
+TriangulationView view_of(const Keyframe& kf) {
+  TriangulationView v;
+  v.id = kf.id;
+  v.T_w_c = kf.T_w_c;
+  v.features = kf.features;
+  // The search reads keypoints, descriptors, depth, status and the outline flags only.
+  v.features.points_c.clear();
+  v.features.sensor_depth.clear();
+  v.features.grid_start.clear();
+  v.features.grid_index.clear();
+  v.has_point.resize(kf.point_of_feature.size());
+  for (std::size_t i = 0; i < kf.point_of_feature.size(); ++i)
+    v.has_point[i] = kf.point_of_feature[i] != kNoPoint;
+  return v;
+}
+
+// A view's feature that can still take a point: the keyframe exists and the feature is free.
+bool free_feature(const Map& map, KeyframeId kf, int feature) {
+  const Keyframe* k = map.keyframe(kf);
+  return k && feature >= 0 && static_cast<std::size_t>(feature) < k->point_of_feature.size() &&
+         k->point_of_feature[static_cast<std::size_t>(feature)] == kNoPoint;
 }
 
 }  // namespace
 
-int triangulate_new_points(Map& map, KeyframeId kid, const PinholeCamera& cam,
-                           const TriangulationOptions& o) {
+std::optional<TriangulationProblem> gather_triangulation(const Map& map, KeyframeId kid,
+                                                         const TriangulationOptions& o) {
   const Keyframe* k1 = map.keyframe(kid);
-  if (!k1) return 0;
-  const tracking::FrameFeatures& f1 = k1->features;
+  if (!k1) return std::nullopt;
+  TriangulationProblem pb;
+  pb.current = view_of(*k1);
+  pb.median_depth = median_depth(map, *k1);
+  for (KeyframeId id : map.covisible(kid, o.neighbours)) {
+    if (const Keyframe* k = map.keyframe(id)) pb.neighbours.push_back(view_of(*k));
+  }
+  return pb;
+}
+
+std::vector<NewMapPoint> solve_triangulation(const TriangulationProblem& pb,
+                                             const PinholeCamera& cam,
+                                             const TriangulationOptions& o) {
+  std::vector<NewMapPoint> out;
+  const TriangulationView& k1 = pb.current;
+  const tracking::FrameFeatures& f1 = k1.features;
+  if (k1.has_point.size() != f1.size()) return out;
+  // Which features observe a point, updated as the search creates them.
+  std::vector<std::uint8_t> has1 = k1.has_point;
+  std::vector<std::vector<std::uint8_t>> has;
+  for (const TriangulationView& v : pb.neighbours) {
+    has.push_back(v.has_point);
+    if (v.has_point.size() != v.features.size()) return out;
+  }
   // A third view may confirm with a feature that has depth of its own.
   TriangulationOptions third_view = o;
   third_view.only_without_depth = false;
-  const SE3 T1 = k1->T_c_w();
-  const Vec3 c1 = k1->T_w_c.translation();
+  const SE3 T1 = k1.T_w_c.inverse();
+  const Vec3 c1 = k1.T_w_c.translation();
   const double cos_min_parallax = std::cos(o.min_parallax_deg * M_PI / 180.0);
-  const double z1 = median_depth(map, *k1);
-  const double min_z1 = o.min_depth_past_readings * reading_ceiling(*k1);
+  const double z1 = pb.median_depth;
+  const double min_z1 = o.min_depth_past_readings * reading_ceiling(f1);
   const Mat3 K = cam.K();
   const Mat3 Kinv = K.inverse();
-  int created = 0;
-  const std::vector<KeyframeId> neighbours = map.covisible(kid, o.neighbours);
-  for (KeyframeId k2id : neighbours) {
-    const Keyframe* k2 = map.keyframe(k2id);
-    if (!k2) continue;
-    const tracking::FrameFeatures& f2 = k2->features;
-    const SE3 T2 = k2->T_c_w();
-    const Vec3 c2 = k2->T_w_c.translation();
+  for (std::size_t n2 = 0; n2 < pb.neighbours.size(); ++n2) {
+    const TriangulationView& k2 = pb.neighbours[n2];
+    const tracking::FrameFeatures& f2 = k2.features;
+    const SE3 T2 = k2.T_w_c.inverse();
+    const Vec3 c2 = k2.T_w_c.translation();
     const double baseline = (c2 - c1).norm();
     if (z1 > 0.0 && baseline / z1 < o.min_baseline_ratio) continue;
-    const double min_z2 = o.min_depth_past_readings * reading_ceiling(*k2);
+    const double min_z2 = o.min_depth_past_readings * reading_ceiling(f2);
     // Fundamental matrix from keyframe 1's pixels to keyframe 2's: l2 = F21 x1.
     const SE3 T21 = T2 * T1.inverse();
     const Mat3 F21 = Kinv.transpose() * skew(T21.translation()) * T21.rotation() * Kinv;
     std::vector<int> cand2;
     for (std::size_t j = 0; j < f2.size(); ++j) {
-      if (usable(*k2, j, o)) cand2.push_back(static_cast<int>(j));
+      if (usable(k2, has[n2], j, o)) cand2.push_back(static_cast<int>(j));
     }
     if (cand2.empty()) continue;
     // The epipole in keyframe 2: a match too close to it has no parallax along its line.
@@ -115,9 +158,8 @@ int triangulate_new_points(Map& map, KeyframeId kid, const PinholeCamera& cam,
     const Vec2 epipole = epipole_in_front ? Vec2(e2.head<2>() / e2.z()) : Vec2::Zero();
     std::vector<char> taken(f2.size(), 0);
     for (std::size_t i = 0; i < f1.size(); ++i) {
-      if (!usable(*k1, i, o)) continue;
-      // Re-read: a point created for i with an earlier neighbour.
-      if (map.keyframe(kid)->point_of_feature[i] != kNoPoint) continue;
+      // has1 changes as points are created for i with earlier neighbours.
+      if (!usable(k1, has1, i, o)) continue;
       const Vec2& u1 = f1.keypoints[i].un;
       const Vec3 l = F21 * Vec3(u1.x(), u1.y(), 1.0);
       const double ln = std::hypot(l.x(), l.y());
@@ -150,7 +192,7 @@ int triangulate_new_points(Map& map, KeyframeId kid, const PinholeCamera& cam,
       const Vec3 r1 = Kinv * Vec3(kp1.un.x(), kp1.un.y(), 1.0);
       const Vec3 r2 = Kinv * Vec3(kp2.un.x(), kp2.un.y(), 1.0);
       // Parallax between the rays, in the world frame.
-      const Vec3 w1 = k1->T_w_c.rotation() * r1, w2 = k2->T_w_c.rotation() * r2;
+      const Vec3 w1 = k1.T_w_c.rotation() * r1, w2 = k2.T_w_c.rotation() * r2;
       if (w1.normalized().dot(w2.normalized()) > cos_min_parallax) continue;
       const Vec3 X = triangulate(T1, T2, r1.head<2>(), r2.head<2>());
       if (!X.allFinite()) continue;
@@ -172,41 +214,68 @@ int triangulate_new_points(Map& map, KeyframeId kid, const PinholeCamera& cam,
       if (ratio_dist * sf < ratio_octave || ratio_dist > ratio_octave * sf) continue;
       // A third keyframe must see it where it projects: a mover that happened to fit one
       // epipolar line between two views rarely fits a third.
-      std::vector<std::pair<KeyframeId, int>> more;
+      std::vector<std::pair<std::size_t, int>> more;  // (neighbour, feature)
       if (o.min_views > 2) {
-        for (KeyframeId k3id : neighbours) {
-          if (k3id == k2id || static_cast<int>(more.size()) + 2 >= o.min_views) continue;
-          const Keyframe* k3 = map.keyframe(k3id);
-          if (!k3) continue;
-          const Vec3 x3 = k3->T_c_w() * X;
+        for (std::size_t n3 = 0; n3 < pb.neighbours.size(); ++n3) {
+          if (n3 == n2 || static_cast<int>(more.size()) + 2 >= o.min_views) continue;
+          const TriangulationView& k3 = pb.neighbours[n3];
+          const Vec3 x3 = k3.T_w_c.inverse() * X;
           if (x3.z() <= 0.0) continue;
           const Vec2 p3(cam.fx * x3.x() / x3.z() + cam.cx, cam.fy * x3.y() / x3.z() + cam.cy);
-          const tracking::FrameFeatures& f3 = k3->features;
+          const tracking::FrameFeatures& f3 = k3.features;
           int best3 = -1, best3_d = o.max_hamming + 1;
           const double r = 2.0 * std::sqrt(o.reprojection_chi2) * f3.level_scale(kp1.level);
           // A linear scan: mapping/ does not link tracking/'s grid (FrameFeatures::in_radius).
           for (std::size_t j = 0; j < f3.size(); ++j) {
             const auto& kp3 = f3.keypoints[j];
             if ((kp3.un - p3).squaredNorm() > r * r || std::abs(kp3.level - kp1.level) > 1 ||
-                !usable(*k3, j, third_view)) {
+                !usable(k3, has[n3], j, third_view)) {
               continue;
             }
             const int d = tracking::hamming(f1.descriptors[i], f3.descriptors[j]);
             if (d < best3_d) best3_d = d, best3 = static_cast<int>(j);
           }
-          if (best3 >= 0) more.emplace_back(k3id, best3);
+          if (best3 >= 0) more.emplace_back(n3, best3);
         }
         if (static_cast<int>(more.size()) + 2 < o.min_views) continue;
       }
-      const PointId p = map.add_point(X, kid, static_cast<int>(i));
-      map.add_observation(p, k2id, best);
-      for (const auto& [k3id, j] : more) map.add_observation(p, k3id, j);
-      map.update_point(p);
+      NewMapPoint np{X, {{k1.id, static_cast<int>(i)}, {k2.id, best}}};
+      has1[i] = 1;
+      has[n2][static_cast<std::size_t>(best)] = 1;
+      for (const auto& [n3, j] : more) {
+        np.views.emplace_back(pb.neighbours[n3].id, j);
+        has[n3][static_cast<std::size_t>(j)] = 1;
+      }
+      out.push_back(std::move(np));
       taken[static_cast<std::size_t>(best)] = 1;
-      ++created;
     }
   }
+  return out;
+}
+
+int apply_triangulation(Map& map, const std::vector<NewMapPoint>& points) {
+  int created = 0;
+  for (const NewMapPoint& np : points) {
+    if (np.views.size() < 2 || !np.p_w.allFinite()) continue;
+    if (!free_feature(map, np.views[0].first, np.views[0].second) ||
+        !free_feature(map, np.views[1].first, np.views[1].second)) {
+      continue;
+    }
+    const PointId p = map.add_point(np.p_w, np.views[0].first, np.views[0].second);
+    for (std::size_t v = 1; v < np.views.size(); ++v) {
+      if (v == 1 || free_feature(map, np.views[v].first, np.views[v].second))
+        map.add_observation(p, np.views[v].first, np.views[v].second);
+    }
+    map.update_point(p);
+    ++created;
+  }
   return created;
+}
+
+int triangulate_new_points(Map& map, KeyframeId kid, const PinholeCamera& cam,
+                           const TriangulationOptions& o) {
+  const auto pb = gather_triangulation(map, kid, o);
+  return pb ? apply_triangulation(map, solve_triangulation(*pb, cam, o)) : 0;
 }
 
 }  // namespace kestrel::mapping

@@ -140,12 +140,20 @@ struct System::Impl {
   std::condition_variable ba_cv;
   std::optional<mapping::LocalBaProblem> ba_request;  // under ba_mutex
   std::vector<mapping::LocalBaSolution> ba_results;   // under ba_mutex
-  bool ba_busy = false;                               // under ba_mutex
-  bool ba_stop = false;                               // under ba_mutex
-  std::size_t ba_superseded = 0;                      // under ba_mutex
-  std::size_t ba_outliers = 0;                        // tracking thread
-  std::vector<mapping::KeyframeId> awaiting_ba;       // tracking thread: keyframes whose
-                                                      // loop job waits for their local BA
+  // The same thread searches each new keyframe for points from two views first (its local BA
+  // needs them); the keyframe's insertion completes when the tracking thread writes them back.
+  struct TriangulationResult {
+    mapping::KeyframeId keyframe = -1;
+    std::vector<mapping::NewMapPoint> points;
+  };
+  std::optional<mapping::TriangulationProblem> tri_request;  // under ba_mutex
+  std::vector<TriangulationResult> tri_results;              // under ba_mutex
+  bool ba_busy = false;                                      // under ba_mutex
+  bool ba_stop = false;                                      // under ba_mutex
+  std::size_t ba_superseded = 0;                             // under ba_mutex
+  std::size_t ba_outliers = 0;                               // tracking thread
+  std::vector<mapping::KeyframeId> awaiting_ba;              // tracking thread: keyframes whose
+                                                             // loop job waits for their local BA
   BoundedQueue<LoopJob> loop_jobs{16, FullPolicy::kBlock};
   std::unique_ptr<loop::Vocabulary> vocabulary;
   std::unique_ptr<loop::LoopDetector> loop_detector;
@@ -382,7 +390,23 @@ struct System::Impl {
   void ba_loop() {
     std::unique_lock<std::mutex> lock(ba_mutex);
     for (;;) {
-      ba_cv.wait(lock, [&] { return ba_request.has_value() || ba_stop; });
+      ba_cv.wait(lock, [&] { return tri_request || ba_request || ba_stop; });
+      if (tri_request) {
+        mapping::TriangulationProblem pb = std::move(*tri_request);
+        tri_request.reset();
+        ba_busy = true;
+        lock.unlock();
+        const auto t0 = Clock::now();
+        TriangulationResult r{
+            pb.current.id,
+            mapping::solve_triangulation(pb, calib.camera, tracker.options().triangulation)};
+        stats.record("mapping.triangulation", ms_since(t0));
+        lock.lock();
+        tri_results.push_back(std::move(r));
+        ba_busy = false;
+        ba_cv.notify_all();
+        continue;
+      }
       if (!ba_request) return;  // stopped, and nothing left to solve
       mapping::LocalBaProblem pb = std::move(*ba_request);
       ba_request.reset();
@@ -399,12 +423,52 @@ struct System::Impl {
     }
   }
 
-  // Tracking thread (and finish()): writes solved local BAs back into the tracker's map.
-  void apply_local_ba_results(bool wait) {
+  // Tracking thread (and finish()): writes what the local-mapping thread solved back into the
+  // tracker's map. wait: until it has nothing left, the local BA a finished keyframe requests
+  // included (lock-step runs, so that they stay reproducible).
+  void apply_mapping_results(bool wait) {
+    for (;;) {
+      std::vector<TriangulationResult> tris;
+      {
+        std::unique_lock<std::mutex> lock(ba_mutex);
+        if (wait) ba_cv.wait(lock, [&] { return !tri_request && !ba_request && !ba_busy; });
+        tris.swap(tri_results);
+      }
+      // Solved local BAs first: they are of older keyframes.
+      apply_local_ba_results();
+      for (const TriangulationResult& r : tris) finish_keyframe(r);
+      if (!wait || tris.empty()) return;
+    }
+  }
+
+  void finish_keyframe(const TriangulationResult& r) {
+    const auto t0 = Clock::now();
+    std::vector<mapping::KeyframeId> culled;
+    const bool finished = tracker.finish_keyframe(r.keyframe, r.points, culled);
+    for (const mapping::KeyframeId id : culled) forget_place(id);
+    keyframes_culled += culled.size();
+    if (!finished) return;
+    stats.record("mapping.keyframe_finish", ms_since(t0));
+    if (request_local_ba() != r.keyframe) loop_job_ready(r.keyframe);
+  }
+
+  // Hands the newest keyframe's triangulation to the local-mapping thread.
+  void request_triangulation() {
+    auto pb = tracker.take_triangulation();
+    if (!pb) return;
+    {
+      std::lock_guard<std::mutex> lock(ba_mutex);
+      // Replaces one not yet started: a keyframe forced in meanwhile (a relocalization)
+      // completed that one without its points.
+      tri_request = std::move(pb);
+    }
+    ba_cv.notify_all();
+  }
+
+  void apply_local_ba_results() {
     std::vector<mapping::LocalBaSolution> done;
     {
-      std::unique_lock<std::mutex> lock(ba_mutex);
-      if (wait) ba_cv.wait(lock, [&] { return !ba_request && !ba_busy; });
+      std::lock_guard<std::mutex> lock(ba_mutex);
       done.swap(ba_results);
     }
     for (const auto& sol : done) {
@@ -525,7 +589,7 @@ struct System::Impl {
     }
 
     if (!world_initialized) initialize_world(frame.t);
-    apply_local_ba_results(options.sequential);
+    apply_mapping_results(options.sequential);
     const std::optional<tracking::MotionPrior> prior = inertial_prediction(frame.t);
 
     // Dynamic filter against the previous frame.
@@ -645,6 +709,7 @@ struct System::Impl {
       if (options.inertial_ba) kf_pre.emplace(predictor.bias(), calib.imu);
     }
     const mapping::KeyframeId local_ba_requested = request_local_ba();
+    request_triangulation();
     if (inertial) {
       const SE3 T_w_b = tr.T_w_c * calib.T_body_camera.inverse();
       // A relocalized pose is not continuous with the fixes before the loss. While the IMU
@@ -729,7 +794,7 @@ struct System::Impl {
     keyframes_culled += tr.culled_keyframes.size();
     if (tr.new_keyframe) {
       // Place recognition sees the keyframe after its local BA (it anchors loop corrections).
-      if (local_ba_requested == tr.keyframe_id) {
+      if (local_ba_requested == tr.keyframe_id || tracker.keyframe_pending(tr.keyframe_id)) {
         awaiting_ba.push_back(tr.keyframe_id);
       } else {
         push_loop_job(tr.keyframe_id);
@@ -961,13 +1026,16 @@ void System::finish() {
   impl_->frames.close();
   if (impl_->tracking_thread.joinable()) impl_->tracking_thread.join();
   if (impl_->ba_thread.joinable()) {
+    // The tracking thread is done: the map is this thread's. The last keyframe's points and
+    // local BA go in before the maps are written.
+    impl_->apply_mapping_results(true);
     {
       std::lock_guard<std::mutex> lock(impl_->ba_mutex);
       impl_->ba_stop = true;
     }
     impl_->ba_cv.notify_all();
-    impl_->ba_thread.join();  // solves what is still requested first
-    impl_->apply_local_ba_results(false);
+    impl_->ba_thread.join();
+    impl_->apply_mapping_results(false);
     for (const mapping::KeyframeId id : std::vector<mapping::KeyframeId>(impl_->awaiting_ba)) {
       impl_->loop_job_ready(id);
     }

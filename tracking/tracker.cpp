@@ -51,6 +51,10 @@ void Tracker::reset() {
   reference_kf_ = last_kf_ = -1;
   last_matches_.clear();
   frames_since_keyframe_ = 0;
+  pending_ba_.reset();
+  pending_triangulation_.reset();
+  pending_kf_ = pending_previous_kf_ = -1;
+  culled_.clear();
 }
 
 void Tracker::set_map(mapping::Map map) {
@@ -319,6 +323,7 @@ TrackResult Tracker::track(FrameFeatures f, const std::optional<SE3>& predicted,
 
   const auto tk = Clock::now();
   if (need_keyframe(f, m, pose.inliers) || relocalizing) {
+    complete_pending_keyframe();
     res.keyframe_id = insert_keyframe(std::move(f), m, T_w_c);
     res.new_keyframe = true;
     res.culled_keyframes = std::move(culled_);
@@ -350,6 +355,9 @@ bool Tracker::start_local_map(FrameFeatures&& f, const SE3& T_w_c, TrackResult& 
     with_depth += f.has_depth(i) && f.status[i] == FeatureStatus::kStatic ? 1 : 0;
   }
   if (with_depth < options_.min_init_points) return false;
+  complete_pending_keyframe();
+  res.culled_keyframes = std::move(culled_);
+  culled_.clear();
   const KeyframeId kid = map_.add_keyframe(f.t, T_w_c, std::move(f));
   attach_imu(kid);
   map_.create_points_from_depth(kid, std::numeric_limits<int>::max(), options_.features.max_depth);
@@ -587,6 +595,7 @@ double close_depth_for(const FrameFeatures& f, double configured) {
 
 bool Tracker::need_keyframe(const FrameFeatures& f, const Matched& m, int inliers) const {
   if (frames_since_keyframe_ < options_.min_frames_between_keyframes) return false;
+  if (pending_kf_ >= 0) return false;  // the local-mapping thread has not finished the last
   const int n_kfs = static_cast<int>(map_.num_keyframes());
   // ORB-SLAM counts an RGB-D observation twice, so its "3 observations" is 2 keyframes here.
   const int min_obs = n_kfs <= 2 ? 1 : 2;
@@ -624,12 +633,31 @@ KeyframeId Tracker::insert_keyframe(FrameFeatures&& f, const Matched& m, const S
                                              options_.features.max_depth);
   }
   map_.update_connections(kid);
+  const KeyframeId previous = last_kf_;
+  reference_kf_ = last_kf_ = kid;
+  frames_since_keyframe_ = 0;
+  if (options_.triangulate && !options_.inline_mapping) {
+    // The local-mapping thread searches; the frames tracked meanwhile use the depth points.
+    pending_triangulation_ = mapping::gather_triangulation(map_, kid, options_.triangulation);
+    if (pending_triangulation_) {
+      pending_kf_ = kid;
+      pending_previous_kf_ = previous;
+      track_from_keyframe(kid);
+      return kid;
+    }
+  }
   if (options_.triangulate) {
     mapping::triangulate_new_points(map_, kid, camera_, options_.triangulation);
     map_.update_connections(kid);
   }
+  complete_keyframe(kid, previous);
+  track_from_keyframe(kid);
+  return kid;
+}
+
+void Tracker::complete_keyframe(KeyframeId kid, KeyframeId previous) {
   map_.cull_points(kid, options_.culling);
-  culled_ = cull_keyframes(kid, last_kf_);
+  for (KeyframeId id : cull_keyframes(kid, previous)) culled_.push_back(id);
   if (options_.local_ba) {
     if (options_.inline_mapping) {
       mapping::local_bundle_adjustment(map_, kid, camera_, options_.ba);
@@ -638,13 +666,43 @@ KeyframeId Tracker::insert_keyframe(FrameFeatures&& f, const Matched& m, const S
       pending_ba_ = mapping::gather_local_ba(map_, kid, options_.ba);
     }
   }
-  reference_kf_ = last_kf_ = kid;
-  frames_since_keyframe_ = 0;
+}
+
+void Tracker::track_from_keyframe(KeyframeId kid) {
   last_matches_.clear();
   for (PointId p : map_.keyframe(kid)->point_of_feature) {
     if (p != kNoPoint) last_matches_.push_back(p);
   }
-  return kid;
+}
+
+std::optional<mapping::TriangulationProblem> Tracker::take_triangulation() {
+  std::optional<mapping::TriangulationProblem> out = std::move(pending_triangulation_);
+  pending_triangulation_.reset();
+  return out;
+}
+
+void Tracker::complete_pending_keyframe() {
+  if (pending_kf_ < 0) return;
+  const KeyframeId kid = pending_kf_;
+  pending_kf_ = -1;
+  pending_triangulation_.reset();
+  if (map_.keyframe(kid)) complete_keyframe(kid, pending_previous_kf_);
+}
+
+bool Tracker::finish_keyframe(KeyframeId kid, const std::vector<mapping::NewMapPoint>& points,
+                              std::vector<KeyframeId>& culled) {
+  if (kid < 0 || kid != pending_kf_) return false;
+  pending_kf_ = -1;
+  if (!map_.keyframe(kid)) return false;
+  mapping::apply_triangulation(map_, points);
+  map_.update_connections(kid);
+  complete_keyframe(kid, pending_previous_kf_);
+  culled.insert(culled.end(), culled_.begin(), culled_.end());
+  culled_.clear();
+  // No frame tracked since the keyframe (lock-step runs): the next one starts from all of its
+  // points, as when the search ran inline.
+  if (frames_since_keyframe_ == 0 && kid == last_kf_) track_from_keyframe(kid);
+  return true;
 }
 
 std::vector<KeyframeId> Tracker::cull_keyframes(KeyframeId newest, KeyframeId previous) {

@@ -102,8 +102,11 @@ struct TrackerOptions {
   // keyframe and the one before the new keyframe are kept. 0: no culling.
   double keyframe_cull_redundancy = 0.9;
   int keyframe_cull_observers = 3;
-  // Local BA inside track() (tests, single-threaded use), or handed out by take_local_ba()
-  // for pipeline/'s local-mapping thread to solve and apply_local_ba() to write back.
+  // Local BA and triangulation inside track() (tests, single-threaded use), or handed out by
+  // take_local_ba() and take_triangulation() for pipeline/'s local-mapping thread to solve, and
+  // apply_local_ba() and finish_keyframe() to write back. The keyframe's culling and local BA
+  // wait for its triangulated points, and no new keyframe is decided meanwhile (ORB-SLAM's
+  // local mapping accepts no keyframe while busy).
   bool inline_mapping = true;
   bool local_ba = true;
   mapping::LocalBaOptions ba;
@@ -197,6 +200,15 @@ class Tracker {
   // Writes a solved local BA back (what was culled meanwhile is skipped); returns the
   // observations it dropped as outliers.
   int apply_local_ba(const mapping::LocalBaSolution& solution);
+  // With inline_mapping off and triangulation on: the new keyframe's search for points from
+  // two views, copied out of the map, once. Its keyframe is pending until finish_keyframe().
+  std::optional<mapping::TriangulationProblem> take_triangulation();
+  bool keyframe_pending(mapping::KeyframeId kf) const { return pending_kf_ == kf; }
+  // Writes the points found for pending keyframe `kf` back and completes its insertion (point
+  // and keyframe culling, its local BA); false when `kf` is no longer pending (a keyframe forced
+  // meanwhile completed it without them). `culled` receives the keyframes erased.
+  bool finish_keyframe(mapping::KeyframeId kf, const std::vector<mapping::NewMapPoint>& points,
+                       std::vector<mapping::KeyframeId>& culled);
   // Continues in a saved map (multi-session): the next frame relocalizes against all of it,
   // and the map grows from there. The pose stays at the map's last keyframe until then.
   void set_map(mapping::Map map);
@@ -216,6 +228,12 @@ class Tracker {
   PoseOptimizerResult optimize(const FrameFeatures& f, Matched& m, const SE3& T_c_w) const;
   bool need_keyframe(const FrameFeatures& f, const Matched& m, int inliers) const;
   mapping::KeyframeId insert_keyframe(FrameFeatures&& f, const Matched& m, const SE3& T_w_c);
+  // The rest of a keyframe's insertion once its points are in: culling, local BA.
+  void complete_keyframe(mapping::KeyframeId kid, mapping::KeyframeId previous);
+  // A keyframe is about to be forced in while one is pending: the pending one completes
+  // without its triangulated points.
+  void complete_pending_keyframe();
+  void track_from_keyframe(mapping::KeyframeId kid);  // last_matches_ := its points
   // Erases the new keyframe's redundant neighbours (TrackerOptions::keyframe_cull_redundancy);
   // returns their ids.
   std::vector<mapping::KeyframeId> cull_keyframes(mapping::KeyframeId newest,
@@ -231,6 +249,9 @@ class Tracker {
   TrackerOptions options_;
   std::optional<PosePrior> prior_;  // during track(features, prior, keep) only
   std::optional<mapping::LocalBaProblem> pending_ba_;
+  std::optional<mapping::TriangulationProblem> pending_triangulation_;
+  mapping::KeyframeId pending_kf_ = -1;           // waits for finish_keyframe()
+  mapping::KeyframeId pending_previous_kf_ = -1;  // the keyframe before it
   FeatureExtractor extractor_;
   mapping::Map map_;
   TrackingState state_ = TrackingState::kInitializing;
@@ -246,7 +267,7 @@ class Tracker {
   bool busy_ = false;    // set_busy(), for one track()
   mapping::KeyframeId reference_kf_ = -1;
   mapping::KeyframeId last_kf_ = -1;
-  std::vector<mapping::KeyframeId> culled_;     // by the last insert_keyframe, for TrackResult
+  std::vector<mapping::KeyframeId> culled_;     // since the last TrackResult reported them
   std::vector<mapping::PointId> last_matches_;  // points matched in the last good frame
   int frames_since_keyframe_ = 0;
 };

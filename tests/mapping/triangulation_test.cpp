@@ -166,5 +166,59 @@ TEST(Triangulation, NoParallaxNoPoints) {
   EXPECT_EQ(triangulate_new_points(w.map, 12345, w.cam), 0);  // no such keyframe
 }
 
+TEST(Triangulation, SolvedApartFromTheMapItFindsTheSamePoints) {
+  World inline_world = make_world(0.5);
+  World apart = make_world(0.5);
+  const int created =
+      triangulate_new_points(inline_world.map, inline_world.kfs[2], inline_world.cam);
+  const auto pb = gather_triangulation(apart.map, apart.kfs[2]);
+  ASSERT_TRUE(pb.has_value());
+  EXPECT_EQ(pb->current.id, apart.kfs[2]);
+  EXPECT_EQ(pb->neighbours.size(), 2u);
+  const std::vector<NewMapPoint> found = solve_triangulation(*pb, apart.cam);
+  EXPECT_EQ(apart.map.num_points(), static_cast<std::size_t>(kAnchors));  // solve wrote nothing
+  EXPECT_EQ(static_cast<int>(found.size()), created);
+  EXPECT_EQ(apply_triangulation(apart.map, found), created);
+  const Keyframe* a = inline_world.map.keyframe(inline_world.kfs[2]);
+  const Keyframe* b = apart.map.keyframe(apart.kfs[2]);
+  for (std::size_t i = 0; i < a->point_of_feature.size(); ++i) {
+    const MapPoint* pa = inline_world.map.point(a->point_of_feature[i]);
+    const MapPoint* pb_ = apart.map.point(b->point_of_feature[i]);
+    ASSERT_EQ(pa == nullptr, pb_ == nullptr) << i;
+    if (pa) {
+      EXPECT_EQ(pa->p_w, pb_->p_w) << i;
+      EXPECT_EQ(pa->observations.size(), pb_->observations.size()) << i;
+    }
+  }
+  EXPECT_EQ(gather_triangulation(apart.map, 12345), std::nullopt);  // no such keyframe
+}
+
+TEST(Triangulation, PointsAppliedAfterTheMapChangedSkipWhatIsGone) {
+  World w = make_world(0.5);
+  const auto pb = gather_triangulation(w.map, w.kfs[2]);
+  ASSERT_TRUE(pb.has_value());
+  const std::vector<NewMapPoint> found = solve_triangulation(*pb, w.cam);
+  ASSERT_GE(found.size(), static_cast<std::size_t>(kFar * 8 / 10));
+  // Meanwhile the tracking thread matched the first point's feature in the new keyframe to
+  // another point, and the keyframe paired with the second point was culled.
+  const auto [kf0, feature0] = found[0].views[0];
+  w.map.add_point(Vec3(0, 0, 5), kf0, feature0);
+  const KeyframeId gone = found[1].views[1].first;
+  int expected = 0;
+  for (std::size_t k = 1; k < found.size(); ++k) expected += found[k].views[1].first != gone;
+  w.map.erase_keyframe(gone);
+  const std::size_t before = w.map.num_points();
+  const int created = apply_triangulation(w.map, found);
+  EXPECT_GT(expected, 0);
+  EXPECT_EQ(created, expected);
+  EXPECT_EQ(w.map.num_points(), before + static_cast<std::size_t>(created));
+  for (const auto& [id, p] : w.map.points()) {
+    for (const auto& [kf, feature] : p.observations) {
+      (void)feature;
+      EXPECT_NE(kf, gone);  // no observation of the culled keyframe
+    }
+  }
+}
+
 }  // namespace
 }  // namespace kestrel::mapping

@@ -349,5 +349,58 @@ TEST(Tracker, KeyframeCullingKeepsARevisitedMapSmallAndConsistent) {
   }
 }
 
+// With the local-mapping thread (inline_mapping off), a keyframe's triangulation is handed out
+// and its insertion completes only when the points come back: no new keyframe is decided
+// meanwhile, its local BA is requested then, and the track goes on from the depth points.
+TEST(Tracker, KeyframeWaitsForItsTriangulationFromTheMappingThread) {
+  const PinholeCamera cam = synthetic_camera();
+  const test::SyntheticScene scene = test::SyntheticScene::office();
+  const std::vector<SE3> path = test::smooth_path(60);
+  TrackerOptions o;
+  o.inline_mapping = false;
+  o.triangulate = true;
+  o.keyframe_ratio = 2.0;  // would take a keyframe every frame
+  Tracker tracker(cam, o);
+  tracker.set_initial_pose(path[0]);
+  std::optional<mapping::TriangulationProblem> in_flight;
+  int frames_in_flight = 0, keyframes = 0, finished = 0;
+  double sum2 = 0.0;
+  for (std::size_t i = 0; i < path.size(); ++i) {
+    // The mapping thread answers two frames after it was asked.
+    if (in_flight && ++frames_in_flight > 2) {
+      const mapping::KeyframeId kid = in_flight->current.id;
+      EXPECT_TRUE(tracker.keyframe_pending(kid));
+      EXPECT_FALSE(tracker.take_local_ba().has_value());  // not before its points
+      std::vector<mapping::KeyframeId> culled;
+      EXPECT_TRUE(
+          tracker.finish_keyframe(kid, mapping::solve_triangulation(*in_flight, cam), culled));
+      EXPECT_FALSE(tracker.keyframe_pending(kid));
+      const auto ba = tracker.take_local_ba();
+      ASSERT_TRUE(ba.has_value());
+      EXPECT_EQ(ba->current, kid);
+      EXPECT_FALSE(tracker.finish_keyframe(kid, {}, culled));  // once
+      in_flight.reset();
+      ++finished;
+    }
+    const RgbdFrame frame = scene.render(cam, path[i], static_cast<Timestamp>(i) * 33'333'333);
+    const TrackResult r = tracker.track(frame);
+    ASSERT_EQ(r.state, TrackingState::kOk) << "frame " << i;
+    if (r.new_keyframe && i > 0) {
+      EXPECT_FALSE(in_flight.has_value()) << "frame " << i << ": a keyframe while one pends";
+      ++keyframes;
+    }
+    if (auto pb = tracker.take_triangulation()) {
+      EXPECT_EQ(pb->current.id, r.keyframe_id);
+      EXPECT_TRUE(tracker.keyframe_pending(r.keyframe_id));
+      in_flight = std::move(pb);
+      frames_in_flight = 0;
+    }
+    sum2 += (r.T_w_c.translation() - path[i].translation()).squaredNorm();
+  }
+  EXPECT_GT(keyframes, 10);
+  EXPECT_GE(finished, keyframes - 1);
+  EXPECT_LT(std::sqrt(sum2 / static_cast<double>(path.size())), 0.01);
+}
+
 }  // namespace
 }  // namespace kestrel::tracking
