@@ -259,6 +259,39 @@ std::vector<ObjectDatabase::Measurement> ObjectDatabase::measure_all(
   std::stable_sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) {
     return to_box(*boxes[x]).area() < to_box(*boxes[y]).area();
   });
+  // A box's own region: where no other box overlaps it. A surface seen there is its object (or
+  // what lies behind it); a cluster a box sees only where another box overlaps it belongs to
+  // that box's object, seen through this one: a table in front of the chair tucked behind it,
+  // whose box nearly covers the chair's. Such a box takes only clusters seen in its own region,
+  // when that region is a fair share of the box and shows surfaces at all (a cup on a table
+  // has none; the floor band leaves none under a table).
+  std::vector<int> own_box(px.size(), -1);  // the one box a point lies in, else -1
+  std::vector<int> own_points(boxes.size(), 0);
+  for (std::size_t i = 0; i < px.size(); ++i) {
+    for (std::size_t b = 0; b < boxes.size(); ++b) {
+      if (!inside(to_box(*boxes[b]), px[i], s)) continue;
+      own_box[i] = own_box[i] == -1 ? static_cast<int>(b) : -2;
+    }
+    if (own_box[i] >= 0) ++own_points[static_cast<std::size_t>(own_box[i])];
+  }
+  std::vector<bool> judged_by_own_region(boxes.size(), false);
+  for (std::size_t b = 0; b < boxes.size(); ++b) {
+    const PixelBox box = to_box(*boxes[b]);
+    int own = 0, all = 0;
+    for (int v = static_cast<int>(box.y0) / s * s; v < box.y1; v += s) {
+      for (int u = static_cast<int>(box.x0) / s * s; u < box.x1; u += s) {
+        const Eigen::Vector2i p(u, v);
+        if (!inside(box, p, s)) continue;
+        ++all;
+        bool other = false;
+        for (std::size_t o = 0; o < boxes.size() && !other; ++o)
+          other = o != b && inside(to_box(*boxes[o]), p, s);
+        own += other ? 0 : 1;
+      }
+    }
+    judged_by_own_region[b] = all > 0 && own < all && own >= options_.min_own_region_share * all &&
+                              own_points[b] >= options_.min_own_region_surface;
+  }
   std::vector<bool> used(clusters.size(), false);
   std::vector<std::vector<int>> chosen(boxes.size());
   std::vector<ClusterInfo> chosen_info(boxes.size());
@@ -281,6 +314,12 @@ std::vector<ObjectDatabase::Measurement> ObjectDatabase::measure_all(
         if (ci.rms > options_.max_depth_rms) continue;
         ci.iou = iou(ci.footprint, box);
         if (ci.iou < options_.min_iou) continue;
+        if (judged_by_own_region[b]) {
+          int seen = 0;
+          for (int i : clusters[c])
+            seen += own_box[static_cast<std::size_t>(i)] == static_cast<int>(b);
+          if (seen < options_.min_own_region_points) continue;
+        }
         top = std::max(top, ci.iou);
         cand.emplace_back(c, ci);
       }

@@ -32,9 +32,19 @@ struct ObjectDatabaseOptions {
   int smooth_radius = 2;            // depth averaged over (2r+1)^2 neighbours on one surface
   float cluster_tolerance = 0.06f;  // metres between surfaces of one cluster
   int min_cluster_points = 30;
-  double min_iou = 0.5;                  // cluster footprint vs detection box
-  double iou_tie = 0.15;                 // footprints this close in IoU: the nearer cluster wins
-  double max_depth_rms = 0.6;            // metres, spread of a cluster's depth about its median
+  double min_iou = 0.5;        // cluster footprint vs detection box
+  double iou_tie = 0.15;       // footprints this close in IoU: the nearer cluster wins
+  double max_depth_rms = 0.6;  // metres, spread of a cluster's depth about its median
+  // A box partly overlapped by others takes only clusters seen where none overlaps it (its own
+  // region), when that region holds this share of the box and this many surface points; a
+  // cluster needs min_own_region_points there. Cafe (truth poses and boxes, kestrel bench
+  // --only objects): a chair tucked behind its table took the table's front for itself, and the
+  // chair in front of it swelled to 0.79 x 0.65 m with the fused result; centre error median
+  // 0.116 -> 0.098 m, size error 0.064 -> 0.017; market 0.071 -> 0.043 m (one of its dining
+  // tables 0.235 -> 0.020 m off).
+  double min_own_region_share = 0.1;
+  int min_own_region_surface = 10;
+  int min_own_region_points = 3;
   double depth_extent_factor = 0.75;     // keep cluster points within this x box width (metres)
   double min_depth_extent = 0.25;        // ... or this, of the cluster's median depth
   bool extend_past_depth_extent = true;  // ... unless no other box holds the pixel
