@@ -344,6 +344,61 @@ std::vector<ObjectDatabase::Measurement> ObjectDatabase::measure_all(
     }
   }
 
+  // A box judged by its own region that found no cluster: its object may be cut in parts by
+  // what hides its middle (a chair behind its table: the backrest above the table top, the
+  // legs below it, the seat hidden, two clusters). The cluster seen in its own region anchors
+  // it; the parts inside the box of the other clusters at about its depth (as deep as an object
+  // is wide) join it, and together they must fit the box.
+  for (std::size_t b : order) {
+    if (!options_.join_parts || !chosen[b].empty() || !judged_by_own_region[b]) continue;
+    const PixelBox box = to_box(*boxes[b]);
+    std::size_t anchor = clusters.size();
+    int best_own = options_.min_own_region_points - 1;
+    for (std::size_t c = 0; c < clusters.size(); ++c) {
+      if (used[c]) continue;
+      int seen = 0;
+      for (int i : clusters[c]) seen += own_box[static_cast<std::size_t>(i)] == static_cast<int>(b);
+      if (seen > best_own) best_own = seen, anchor = c;
+    }
+    if (anchor == clusters.size()) continue;
+    std::vector<int> anchor_in;
+    for (int i : clusters[anchor])
+      if (inside(box, px[i], s)) anchor_in.push_back(i);
+    const double z0 = describe(anchor_in).depth;
+    const double width_m = (box.x1 - box.x0) * z0 / kf.camera.fx;
+    const double keep = std::max(options_.min_depth_extent, options_.depth_extent_factor * width_m);
+    std::vector<std::size_t> parts;
+    std::vector<int> group;
+    for (std::size_t c = 0; c < clusters.size(); ++c) {
+      if (used[c]) continue;
+      std::vector<int> in;
+      for (int i : clusters[c])
+        if (inside(box, px[i], s)) in.push_back(i);
+      if (in.empty() || (c != anchor && static_cast<int>(in.size()) < options_.min_cluster_points))
+        continue;
+      if (c != anchor && std::abs(describe(in).depth - z0) > keep) continue;
+      parts.push_back(c);
+      group.insert(group.end(), in.begin(), in.end());
+    }
+    if (parts.size() < 2) continue;  // one cluster alone was judged by the passes above
+    ClusterInfo gi = describe(group);
+    gi.iou = iou(gi.footprint, box);
+    if (gi.iou < options_.min_iou || gi.rms > options_.max_depth_rms) continue;
+    chosen[b] = group;
+    chosen_info[b] = gi;
+    for (std::size_t c : parts) {
+      std::vector<int> rest;
+      for (int i : clusters[c])
+        if (!inside(box, px[i], s)) rest.push_back(i);
+      if (static_cast<int>(rest.size()) >= options_.min_cluster_points) {
+        info[c] = describe(rest);
+        clusters[c] = std::move(rest);
+      } else {
+        used[c] = true;
+      }
+    }
+  }
+
   // Whether the surface a box's cluster lies on goes on past an edge of the box that is not the
   // image border, on most of that edge: the detector bounds its object, so a cluster that does
   // not end at the box is a part of something larger seen through the box (a stall in front of
@@ -438,6 +493,11 @@ std::vector<ObjectDatabase::Measurement> ObjectDatabase::measure_all(
     if (options_.size_priors) {
       if (const auto prior = footprint_prior(m.label)) {
         m.box = complete_with_prior(m.box, {kf.T_w_c.translation()}, *prior, m.cut_towards);
+        // Far longer than its class: several objects taken for one (the front of a table
+        // between two chairs, in a chair's box with no table box beside it).
+        if (std::max(m.box.size.x(), m.box.size.y()) >
+            options_.max_length_over_prior * prior->length)
+          continue;
       }
     }
     m.cut = continues_past_box(box, chosen[b]);

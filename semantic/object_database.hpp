@@ -45,6 +45,15 @@ struct ObjectDatabaseOptions {
   double min_own_region_share = 0.1;
   int min_own_region_surface = 10;
   int min_own_region_points = 3;
+  // Such a box that found no cluster is measured from the cluster in its own region and the
+  // parts of others at about its depth: what hides an object's middle cuts it in two (a chair
+  // behind its table: backrest above, legs below). With max_length_over_prior, cafe's chair
+  // tucked behind its table, missed until then, is found: recall 5/6 -> 6/6, centre error
+  // median 0.098 m (kestrel bench --only objects).
+  bool join_parts = true;
+  // A measurement longer than this x its class's typical length (size_prior.hpp) is several
+  // objects taken for one, and dropped.
+  double max_length_over_prior = 2.0;
   double depth_extent_factor = 0.75;     // keep cluster points within this x box width (metres)
   double min_depth_extent = 0.25;        // ... or this, of the cluster's median depth
   bool extend_past_depth_extent = true;  // ... unless no other box holds the pixel

@@ -313,3 +313,54 @@ TEST(ObjectDatabase, AChairBehindATableIsNotTheTablesFront) {
   ASSERT_TRUE(c_off.has_value());
   EXPECT_LT(c_off->box.center.x(), 2.6) << c_off->box.center.transpose();
 }
+
+// What hides an object's middle cuts it in two clusters (a chair behind a table top: its back
+// above, its legs below). Neither alone fits the chair's box; the parts at the depth of the
+// one seen in the box's own region are measured together.
+TEST(ObjectDatabase, AnObjectCutInTwoByWhatHidesItsMiddleIsMeasuredWhole) {
+  const AxisBox top{Vec3(1.8, -0.8, 0.45), Vec3(2.6, 0.8, 0.6)};
+  const AxisBox chair{Vec3(2.7, -0.3, 0.0), Vec3(3.2, 0.3, 0.95)};
+  const PinholeCamera cam = camera();
+  auto run = [&](const ObjectDatabaseOptions& o) {
+    ObjectDatabase db(o);
+    for (int k = 0; k < 5; ++k) {
+      const SE3 T = look_at(Vec3(0.0, -0.1 + 0.05 * k, 0.5), Vec3(2.5, 0.0, 0.4));
+      const Image depth = render(cam, T, {top, chair});
+      ObjectKeyframe kf;
+      kf.keyframe_id = k;
+      kf.T_w_c = T;
+      kf.stamp = from_seconds(k);
+      kf.depth = &depth;
+      kf.camera = cam;
+      kf.static_boxes = {box_of(cam, T, top, "dining table"), box_of(cam, T, chair, "chair")};
+      db.update(kf);
+    }
+    std::optional<SemanticObject> c;
+    for (const SemanticObject& obj : db.all_objects())
+      if (obj.label == "chair") c = obj;
+    return c;
+  };
+  const auto c = run({});
+  ASSERT_TRUE(c.has_value());
+  EXPECT_EQ(c->observations, 5);
+  EXPECT_LT((c->box.center.head<2>() - Vec2(2.95, 0.0)).norm(), 0.08) << c->box.center.transpose();
+  EXPECT_NEAR(c->box.center.z() + c->box.size.z() / 2, 0.95, 0.05);  // its back's top
+  ObjectDatabaseOptions apart;
+  apart.join_parts = false;
+  EXPECT_FALSE(run(apart).has_value());  // neither part fits the box alone
+}
+
+// A "chair" 1.6 m long is several things taken for one chair: not measured.
+TEST(ObjectDatabase, AMeasurementFarLongerThanItsClassIsDropped) {
+  const AxisBox long_block{Vec3(2.0, -0.2, 0.0), Vec3(2.5, 1.4, 0.9)};
+  ObjectDatabase db;
+  observe(db, 4, {long_block}, {"chair"});
+  EXPECT_TRUE(db.all_objects().empty());
+  ObjectDatabaseOptions any;
+  any.max_length_over_prior = 1e9;
+  ObjectDatabase kept(any);
+  observe(kept, 4, {long_block}, {"chair"});
+  ASSERT_EQ(kept.all_objects().size(), 1u);
+  EXPECT_NEAR(std::max(kept.all_objects()[0].box.size.x(), kept.all_objects()[0].box.size.y()), 1.6,
+              0.1);
+}
