@@ -86,11 +86,12 @@ struct TrackerOptions {
   // 0.258; ugv-loop 0.008 -> 0.018; corridor-dark (lost either way) 1.56 -> 3.03.
   // Before the outline and sensor-range checks of mapping::TriangulationOptions, and the loop
   // gate, it cost cafe (0.011 -> 0.38 m on one draw). Its price is compute: market's map holds
-  // 60% more points, keyframe insertion takes 5.4 ms instead of 0.4 (median, in the tracking
-  // thread), local BA 38 ms instead of 15. Live on this 2-core machine (kestrel run --realtime,
-  // the renderer on the same cores), 60 s of market dropped 421 and 467 frames instead of 217
-  // and ended at APE 0.38 and 0.14 m against 0.13. Over the 10 minutes of the endurance bench
-  // (kestrel bench --only endurance) it came out ahead: 5275 frames dropped instead of 8009,
+  // 60% more points, the search takes 7.8 ms a keyframe (median; on the local-mapping thread
+  // unless inline_mapping), local BA 38 ms instead of 15. Live on this 2-core machine (kestrel
+  // run --realtime, the renderer on the same cores), 60 s of market dropped 290 frames (217
+  // without it) and ended at APE 0.09 m (0.13 without); with the search in the tracking thread
+  // it had dropped 421 and 467 and ended at 0.38 and 0.14 m. Over the 10 minutes of the endurance
+  // bench (kestrel bench --only endurance) it came out ahead: 5275 frames dropped instead of 8009,
   // 67 lost instead of 348, APE 0.042 m instead of 0.106, 718 keyframes instead of 1137 (the
   // far points keep tracking from asking for new ones), RSS 480 MiB instead of 571.
   // kestrel run --no-triangulate: off.
