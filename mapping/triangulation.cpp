@@ -122,8 +122,10 @@ std::vector<NewMapPoint> solve_triangulation(const TriangulationProblem& pb,
   // Which features observe a point, updated as the search creates them.
   std::vector<std::uint8_t> has1 = k1.has_point;
   std::vector<std::vector<std::uint8_t>> has;
+  std::vector<SE3> T_c_w;  // each neighbour's, inverted once
   for (const TriangulationView& v : pb.neighbours) {
     has.push_back(v.has_point);
+    T_c_w.push_back(v.T_w_c.inverse());
     if (v.has_point.size() != v.features.size()) return out;
   }
   // A third view may confirm with a feature that has depth of its own.
@@ -139,7 +141,7 @@ std::vector<NewMapPoint> solve_triangulation(const TriangulationProblem& pb,
   for (std::size_t n2 = 0; n2 < pb.neighbours.size(); ++n2) {
     const TriangulationView& k2 = pb.neighbours[n2];
     const tracking::FrameFeatures& f2 = k2.features;
-    const SE3 T2 = k2.T_w_c.inverse();
+    const SE3& T2 = T_c_w[n2];
     const Vec3 c2 = k2.T_w_c.translation();
     const double baseline = (c2 - c1).norm();
     if (z1 > 0.0 && baseline / z1 < o.min_baseline_ratio) continue;
@@ -219,7 +221,7 @@ std::vector<NewMapPoint> solve_triangulation(const TriangulationProblem& pb,
         for (std::size_t n3 = 0; n3 < pb.neighbours.size(); ++n3) {
           if (n3 == n2 || static_cast<int>(more.size()) + 2 >= o.min_views) continue;
           const TriangulationView& k3 = pb.neighbours[n3];
-          const Vec3 x3 = k3.T_w_c.inverse() * X;
+          const Vec3 x3 = T_c_w[n3] * X;
           if (x3.z() <= 0.0) continue;
           const Vec2 p3(cam.fx * x3.x() / x3.z() + cam.cx, cam.fy * x3.y() / x3.z() + cam.cy);
           const tracking::FrameFeatures& f3 = k3.features;

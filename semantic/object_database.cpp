@@ -295,6 +295,30 @@ std::vector<ObjectDatabase::Measurement> ObjectDatabase::measure_all(
   std::vector<bool> used(clusters.size(), false);
   std::vector<std::vector<int>> chosen(boxes.size());
   std::vector<ClusterInfo> chosen_info(boxes.size());
+  const auto in_box = [&](std::size_t c, const PixelBox& box) {
+    std::vector<int> in;
+    for (int i : clusters[c])
+      if (inside(box, px[i], s)) in.push_back(i);
+    return in;
+  };
+  // Cluster c's points seen in box b's own region.
+  const auto seen_in_own_region = [&](std::size_t c, std::size_t b) {
+    int seen = 0;
+    for (int i : clusters[c]) seen += own_box[static_cast<std::size_t>(i)] == static_cast<int>(b);
+    return seen;
+  };
+  // A box took cluster c's part inside it: the rest stays for the other boxes.
+  const auto keep_rest = [&](std::size_t c, const PixelBox& box) {
+    std::vector<int> rest;
+    for (int i : clusters[c])
+      if (!inside(box, px[i], s)) rest.push_back(i);
+    if (static_cast<int>(rest.size()) >= options_.min_cluster_points) {
+      info[c] = describe(rest);
+      clusters[c] = std::move(rest);
+    } else {
+      used[c] = true;
+    }
+  };
   for (int pass = 0; pass < 2; ++pass) {
     for (std::size_t b : order) {
       if (!chosen[b].empty()) continue;
@@ -305,21 +329,15 @@ std::vector<ObjectDatabase::Measurement> ObjectDatabase::measure_all(
         if (used[c]) continue;
         ClusterInfo ci = info[c];
         if (pass == 1) {
-          std::vector<int> in;
-          for (int i : clusters[c])
-            if (inside(box, px[i], s)) in.push_back(i);
+          const std::vector<int> in = in_box(c, box);
           if (static_cast<int>(in.size()) < options_.min_cluster_points) continue;
           ci = describe(in);
         }
         if (ci.rms > options_.max_depth_rms) continue;
         ci.iou = iou(ci.footprint, box);
         if (ci.iou < options_.min_iou) continue;
-        if (judged_by_own_region[b]) {
-          int seen = 0;
-          for (int i : clusters[c])
-            seen += own_box[static_cast<std::size_t>(i)] == static_cast<int>(b);
-          if (seen < options_.min_own_region_points) continue;
-        }
+        if (judged_by_own_region[b] && seen_in_own_region(c, b) < options_.min_own_region_points)
+          continue;
         top = std::max(top, ci.iou);
         cand.emplace_back(c, ci);
       }
@@ -329,18 +347,11 @@ std::vector<ObjectDatabase::Measurement> ObjectDatabase::measure_all(
             (!pick || c.second.depth < pick->second.depth))
           pick = &c;
       if (!pick) continue;
-      // The box keeps the part of the cluster inside it; the rest stays for the other boxes.
       const std::size_t c = pick->first;
-      std::vector<int> rest;
-      for (int i : clusters[c]) (inside(box, px[i], s) ? chosen[b] : rest).push_back(i);
+      chosen[b] = in_box(c, box);
       chosen_info[b] = describe(chosen[b]);
       chosen_info[b].iou = pick->second.iou;
-      if (static_cast<int>(rest.size()) >= options_.min_cluster_points) {
-        info[c] = describe(rest);
-        clusters[c] = std::move(rest);
-      } else {
-        used[c] = true;
-      }
+      keep_rest(c, box);
     }
   }
 
@@ -356,24 +367,18 @@ std::vector<ObjectDatabase::Measurement> ObjectDatabase::measure_all(
     int best_own = options_.min_own_region_points - 1;
     for (std::size_t c = 0; c < clusters.size(); ++c) {
       if (used[c]) continue;
-      int seen = 0;
-      for (int i : clusters[c]) seen += own_box[static_cast<std::size_t>(i)] == static_cast<int>(b);
+      const int seen = seen_in_own_region(c, b);
       if (seen > best_own) best_own = seen, anchor = c;
     }
     if (anchor == clusters.size()) continue;
-    std::vector<int> anchor_in;
-    for (int i : clusters[anchor])
-      if (inside(box, px[i], s)) anchor_in.push_back(i);
-    const double z0 = describe(anchor_in).depth;
+    const double z0 = describe(in_box(anchor, box)).depth;
     const double width_m = (box.x1 - box.x0) * z0 / kf.camera.fx;
     const double keep = std::max(options_.min_depth_extent, options_.depth_extent_factor * width_m);
     std::vector<std::size_t> parts;
     std::vector<int> group;
     for (std::size_t c = 0; c < clusters.size(); ++c) {
       if (used[c]) continue;
-      std::vector<int> in;
-      for (int i : clusters[c])
-        if (inside(box, px[i], s)) in.push_back(i);
+      const std::vector<int> in = in_box(c, box);
       if (in.empty() || (c != anchor && static_cast<int>(in.size()) < options_.min_cluster_points))
         continue;
       if (c != anchor && std::abs(describe(in).depth - z0) > keep) continue;
@@ -386,17 +391,7 @@ std::vector<ObjectDatabase::Measurement> ObjectDatabase::measure_all(
     if (gi.iou < options_.min_iou || gi.rms > options_.max_depth_rms) continue;
     chosen[b] = group;
     chosen_info[b] = gi;
-    for (std::size_t c : parts) {
-      std::vector<int> rest;
-      for (int i : clusters[c])
-        if (!inside(box, px[i], s)) rest.push_back(i);
-      if (static_cast<int>(rest.size()) >= options_.min_cluster_points) {
-        info[c] = describe(rest);
-        clusters[c] = std::move(rest);
-      } else {
-        used[c] = true;
-      }
-    }
+    for (std::size_t c : parts) keep_rest(c, box);
   }
 
   // Whether the surface a box's cluster lies on goes on past an edge of the box that is not the

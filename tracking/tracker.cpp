@@ -697,7 +697,7 @@ bool Tracker::finish_keyframe(KeyframeId kid, const std::vector<mapping::NewMapP
   mapping::apply_triangulation(map_, points);
   map_.update_connections(kid);
   complete_keyframe(kid, pending_previous_kf_);
-  // Frames tracked meanwhile may have made a keyframe that culling just erased their reference.
+  // Frames tracked meanwhile may have chosen as their reference a keyframe culling just erased.
   if (!map_.keyframe(reference_kf_)) reference_kf_ = kid;
   culled.insert(culled.end(), culled_.begin(), culled_.end());
   culled_.clear();

@@ -96,26 +96,51 @@ detect::Detection box_of(const PinholeCamera& cam, const SE3& T_w_c, const AxisB
 const AxisBox kChair{Vec3(2.0, -0.3, 0.0), Vec3(2.5, 0.3, 0.9)};
 const AxisBox kChair2{Vec3(2.5, 1.5, 0.0), Vec3(3.0, 2.1, 0.9)};
 
-// Views from a short arc in front of the boxes; keyframe ids 0..n-1.
-void observe(ObjectDatabase& db, int n, const std::vector<AxisBox>& boxes,
-             const std::vector<std::string>& labels, std::vector<SE3>* poses = nullptr) {
+// One keyframe per pose (ids 0..), every box detected with its label.
+void update_views(ObjectDatabase& db, const std::vector<SE3>& poses,
+                  const std::vector<AxisBox>& boxes, const std::vector<std::string>& labels) {
   const PinholeCamera cam = camera();
-  for (int k = 0; k < n; ++k) {
-    const double a = -0.5 + k * (1.0 / std::max(1, n - 1));
-    const SE3 T =
-        look_at(Vec3(2.25 - 1.8 * std::cos(a), 0.6 + 1.8 * std::sin(a), 1.3), Vec3(2.5, 0.6, 0.4));
+  for (std::size_t k = 0; k < poses.size(); ++k) {
+    const SE3& T = poses[k];
     const Image depth = render(cam, T, boxes);
     ObjectKeyframe kf;
-    kf.keyframe_id = k;
+    kf.keyframe_id = static_cast<std::int64_t>(k);
     kf.T_w_c = T;
-    kf.stamp = from_seconds(k);
+    kf.stamp = from_seconds(static_cast<double>(k));
     kf.depth = &depth;
     kf.camera = cam;
     for (std::size_t i = 0; i < boxes.size(); ++i)
       kf.static_boxes.push_back(box_of(cam, T, boxes[i], labels[i]));
     db.update(kf);
-    if (poses) poses->push_back(T);
   }
+}
+
+// Views from a short arc in front of the boxes; keyframe ids 0..n-1.
+void observe(ObjectDatabase& db, int n, const std::vector<AxisBox>& boxes,
+             const std::vector<std::string>& labels, std::vector<SE3>* poses = nullptr) {
+  std::vector<SE3> views;
+  for (int k = 0; k < n; ++k) {
+    const double a = -0.5 + k * (1.0 / std::max(1, n - 1));
+    views.push_back(
+        look_at(Vec3(2.25 - 1.8 * std::cos(a), 0.6 + 1.8 * std::sin(a), 1.3), Vec3(2.5, 0.6, 0.4)));
+  }
+  update_views(db, views, boxes, labels);
+  if (poses) poses->insert(poses->end(), views.begin(), views.end());
+}
+
+// Five views from 2.5 m in front of (2.5, 0), stepping sideways, at `height`.
+std::vector<SE3> views_from_front(double height) {
+  std::vector<SE3> views;
+  for (int k = 0; k < 5; ++k)
+    views.push_back(look_at(Vec3(0.0, -0.1 + 0.05 * k, height), Vec3(2.5, 0.0, 0.4)));
+  return views;
+}
+
+std::optional<SemanticObject> find_label(const std::vector<SemanticObject>& objs,
+                                         const std::string& label) {
+  for (const SemanticObject& o : objs)
+    if (o.label == label) return o;
+  return std::nullopt;
 }
 
 }  // namespace
@@ -273,43 +298,26 @@ TEST(ObjectDatabase, AnObjectSeenEndOnKeepsItsFarEnd) {
 TEST(ObjectDatabase, AChairBehindATableIsNotTheTablesFront) {
   const AxisBox table{Vec3(1.8, -0.45, 0.0), Vec3(2.6, 0.45, 0.75)};
   const AxisBox chair{Vec3(2.7, -0.675, 0.0), Vec3(3.2, 0.675, 0.95)};
-  const PinholeCamera cam = camera();
   auto run = [&](const ObjectDatabaseOptions& o) {
     ObjectDatabase db(o);
-    for (int k = 0; k < 5; ++k) {
-      const SE3 T = look_at(Vec3(0.0, -0.1 + 0.05 * k, 0.8), Vec3(2.5, 0.0, 0.4));
-      const Image depth = render(cam, T, {table, chair});
-      ObjectKeyframe kf;
-      kf.keyframe_id = k;
-      kf.T_w_c = T;
-      kf.stamp = from_seconds(k);
-      kf.depth = &depth;
-      kf.camera = cam;
-      kf.static_boxes = {box_of(cam, T, table, "dining table"), box_of(cam, T, chair, "chair")};
-      db.update(kf);
-    }
+    update_views(db, views_from_front(0.8), {table, chair}, {"dining table", "chair"});
     return db.all_objects();
   };
-  const auto find = [](const std::vector<SemanticObject>& objs, const std::string& label) {
-    for (const SemanticObject& o : objs)
-      if (o.label == label) return std::optional<SemanticObject>(o);
-    return std::optional<SemanticObject>();
-  };
   const auto objs = run({});
-  const auto t = find(objs, "dining table");
+  const auto t = find_label(objs, "dining table");
   ASSERT_TRUE(t.has_value());
   EXPECT_EQ(t->observations, 5);
   // Its front face where it is (its depth is the size prior's: the far side was never seen).
   EXPECT_NEAR(t->box.center.x() - t->box.size.x() / 2, 1.8, 0.05) << t->box.center.transpose();
   EXPECT_NEAR(t->box.center.y(), 0.0, 0.05);
-  if (const auto c = find(objs, "chair")) {
+  if (const auto c = find_label(objs, "chair")) {
     EXPECT_GT(c->box.center.x(), 2.65) << c->box.center.transpose();  // behind the table
   }
   // What the check prevents: the chair's box, smaller, chose first and took the table's front.
   ObjectDatabaseOptions off;
   off.min_own_region_share = 2.0;
   const auto without = run(off);
-  const auto c_off = find(without, "chair");
+  const auto c_off = find_label(without, "chair");
   ASSERT_TRUE(c_off.has_value());
   EXPECT_LT(c_off->box.center.x(), 2.6) << c_off->box.center.transpose();
 }
@@ -320,25 +328,10 @@ TEST(ObjectDatabase, AChairBehindATableIsNotTheTablesFront) {
 TEST(ObjectDatabase, AnObjectCutInTwoByWhatHidesItsMiddleIsMeasuredWhole) {
   const AxisBox top{Vec3(1.8, -0.8, 0.45), Vec3(2.6, 0.8, 0.6)};
   const AxisBox chair{Vec3(2.7, -0.3, 0.0), Vec3(3.2, 0.3, 0.95)};
-  const PinholeCamera cam = camera();
   auto run = [&](const ObjectDatabaseOptions& o) {
     ObjectDatabase db(o);
-    for (int k = 0; k < 5; ++k) {
-      const SE3 T = look_at(Vec3(0.0, -0.1 + 0.05 * k, 0.5), Vec3(2.5, 0.0, 0.4));
-      const Image depth = render(cam, T, {top, chair});
-      ObjectKeyframe kf;
-      kf.keyframe_id = k;
-      kf.T_w_c = T;
-      kf.stamp = from_seconds(k);
-      kf.depth = &depth;
-      kf.camera = cam;
-      kf.static_boxes = {box_of(cam, T, top, "dining table"), box_of(cam, T, chair, "chair")};
-      db.update(kf);
-    }
-    std::optional<SemanticObject> c;
-    for (const SemanticObject& obj : db.all_objects())
-      if (obj.label == "chair") c = obj;
-    return c;
+    update_views(db, views_from_front(0.5), {top, chair}, {"dining table", "chair"});
+    return find_label(db.all_objects(), "chair");
   };
   const auto c = run({});
   ASSERT_TRUE(c.has_value());
