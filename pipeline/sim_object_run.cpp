@@ -67,7 +67,8 @@ SimObjectScores run_sim_objects(const SimObjectRunOptions& o) {
     masked_id[0] = false;
     if (o.detect_still_movers)
       for (const sim::SimBox& b : f.boxes)
-        if (b.instance < sim::kFirstObjectId && !b.moving && b.label != "person")
+        if (b.instance < sim::kFirstObjectId && (!b.moving || !o.moving_flags) &&
+            b.label != "person")
           masked_id[static_cast<std::size_t>(b.instance)] = false;
     std::vector<std::uint8_t> static_mask(static_cast<std::size_t>(f.mask.width) * f.mask.height);
     for (int v = 0; v < f.mask.height; ++v)
@@ -100,7 +101,7 @@ SimObjectScores run_sim_objects(const SimObjectRunOptions& o) {
             sim.world().objects()[static_cast<std::size_t>(b.instance - sim::kFirstObjectId)];
         if ((w.center - T_w_c.translation()).norm() < sim.scenario().sensor.depth_max - 0.5)
           ++given[b.instance];
-      } else if (b.moving && b.label != "person") {
+      } else if (b.moving && o.moving_flags && b.label != "person") {
         kf.moving_boxes.push_back(d);
       } else if (o.detect_still_movers && b.label != "person" && b.pixels >= min_pixels &&
                  b.occluded <= 0.5) {

@@ -25,6 +25,12 @@ struct SimObjectRunOptions {
   // filter's moving flag give. Off: movers are always masked and never detected. People are
   // always masked.
   bool detect_still_movers = false;
+  // With detect_still_movers: the truth tells which of those movers moves now (its box is a
+  // moving box, its pixels masked). Off: a moving chair is a chair like any other and its pixels
+  // stay in, as in a live run, where the detector calls it a chair whether it moves or not and
+  // the dynamic filter cannot see a push at 0.3 m/s from 7 m (under a pixel a frame); the
+  // object database must notice the move itself.
+  bool moving_flags = true;
   // A ground robot's (trajectory kind ugv) body radius: its disc at each keyframe is free in the
   // grid (footprint clearing), as on the agent. 0: none.
   double robot_radius = 0.25;                         // metres

@@ -34,14 +34,23 @@ bool inside(const PixelBox& b, const Eigen::Vector2i& p, int stride) {
 
 double footprint(const UprightBox& b) { return std::max(b.size.x(), b.size.y()); }
 
+// Its class's typical length where it has one, else its own: the fused box of an object caught
+// early in a move is smeared along its path, and gates from that size would grow with the move.
+double typical_length(const SemanticObject& o) {
+  const auto prior = footprint_prior(o.label);
+  return prior ? prior->length : footprint(o.box);
+}
+
 // Centres closer than `factor` x the larger footprint (labels are compared by the caller).
 bool same_object(const UprightBox& a, const UprightBox& b, double factor) {
   const double dist = (a.center - b.center).head<2>().norm();
   return dist < factor * std::max({footprint(a), footprint(b), 0.3});
 }
 
-// The image box of an object's upright box seen from T_w_c; false when behind the camera.
-bool project_box(const UprightBox& b, const SE3& T_w_c, const PinholeCamera& cam, PixelBox& out) {
+// The image box of an object's upright box seen from T_w_c, clipped to the image; false when
+// behind the camera. `whole`, when given, says whether no clipping was needed.
+bool project_box(const UprightBox& b, const SE3& T_w_c, const PinholeCamera& cam, PixelBox& out,
+                 bool* whole = nullptr) {
   const SE3 T_c_w = T_w_c.inverse();
   const double c = std::cos(b.yaw), s = std::sin(b.yaw);
   out = {1e9, 1e9, -1e9, -1e9};
@@ -58,6 +67,7 @@ bool project_box(const UprightBox& b, const SE3& T_w_c, const PinholeCamera& cam
     out.x1 = std::max(out.x1, uv->x());
     out.y1 = std::max(out.y1, uv->y());
   }
+  if (whole) *whole = out.x0 >= 0 && out.y0 >= 0 && out.x1 <= cam.width && out.y1 <= cam.height;
   out.x0 = std::max(out.x0, 0.0);
   out.y0 = std::max(out.y0, 0.0);
   out.x1 = std::min(out.x1, static_cast<double>(cam.width));
@@ -564,6 +574,22 @@ int ObjectDatabase::merge_duplicates() {
     for (auto a = entries_.begin(); a != entries_.end() && !again; ++a) {
       for (auto b = std::next(a); b != entries_.end(); ++b) {
         if (a->second.object.label != b->second.object.label) continue;
+        // A moving object passing another of its kind is still two objects; but one that
+        // appeared, still, where the moving one went while it moved is where it stopped (seen
+        // there first after a gap in the views).
+        if (a->second.object.moving || b->second.object.moving) {
+          if (a->second.object.moving == b->second.object.moving) continue;
+          const auto mover = a->second.object.moving ? a : b;
+          const auto still = a->second.object.moving ? b : a;
+          if (still->second.object.first_seen < mover->second.still_since ||
+              !same_object(mover->second.object.box, still->second.object.box,
+                           options_.merge_factor))
+            continue;
+          entries_.erase(mover);
+          ++merged;
+          again = true;
+          break;
+        }
         const auto& va = a->second.voxels;
         const auto& vb = b->second.voxels;
         const double shared = va.size() < vb.size() ? overlap(va, vb) : overlap(vb, va);
@@ -588,6 +614,118 @@ int ObjectDatabase::merge_duplicates() {
     }
   }
   return merged;
+}
+
+void ObjectDatabase::fuse(Entry& e, HeldView&& v) const {
+  SemanticObject& o = e.object;
+  ++o.observations;
+  o.whole_observations += v.cut ? 0 : 1;
+  o.score_sum += v.score;
+  o.first_seen = std::min(o.first_seen, v.stamp);
+  o.last_seen = std::max(o.last_seen, v.stamp);
+  e.mean_depth += (v.depth - e.mean_depth) / o.observations;
+  e.views.push_back(std::move(v.view));
+  if (static_cast<int>(e.views.size()) > options_.max_observations_kept)
+    e.views.erase(e.views.begin());
+  refit(e);
+}
+
+ObjectDatabase::MotionStep ObjectDatabase::track_motion(Entry& e, const Vec2& at, Timestamp stamp,
+                                                        ObjectUpdateStats& stats) const {
+  const UprightBox& b = e.object.box;
+  const double move = std::max(options_.min_move, options_.move_factor * typical_length(e.object));
+  if (e.object.moving) {
+    if ((at - e.still_at).norm() <= options_.still_factor * move) return MotionStep::kFuse;
+    e.still_at = at;
+    e.still_since = stamp;
+    return MotionStep::kRestart;
+  }
+  const double away = (at - b.center.head<2>()).norm();
+  // A streak that has not proved a move within move_window was views, not a move: partial views
+  // of a static object can sit off its centre for as long as the camera looks from there. What
+  // it held goes into the object after all.
+  auto release = [&] {
+    e.displaced = 0;
+    for (HeldView& h : e.held) fuse(e, std::move(h));
+    e.held.clear();
+  };
+  if (e.displaced > 0 && to_seconds(stamp - e.displaced_since) > options_.move_window) {
+    release();
+    return MotionStep::kFuse;
+  }
+  if (static_cast<int>(e.views.size()) < options_.min_observations || away <= move) {
+    release();
+    return MotionStep::kFuse;
+  }
+  // Held out of the object until the streak decides: fused, the first steps of a move would
+  // drag a young object's centre along, and it would never look displaced.
+  if (e.displaced++ == 0) {
+    e.displaced_since = stamp;
+    e.displaced_away = away;
+  }
+  e.displaced_last = at;
+  // Walking away: each streak farther from where it stood, not a view off its centre that a
+  // moving camera slides about (market's potted plant, half hidden: 0.55 then 0.38 m off).
+  if (e.displaced < options_.move_streak || away - e.displaced_away < options_.move_travel)
+    return MotionStep::kHold;
+  e.object.moving = true;
+  e.displaced = 0;
+  e.still_at = at;
+  e.still_since = stamp;
+  ++stats.started_moving;
+  return MotionStep::kRestart;
+}
+
+ObjectDatabase::Sighting ObjectDatabase::look_for(const Entry& e, const ObjectKeyframe& kf) const {
+  const UprightBox& b = e.object.box;
+  PixelBox pb;
+  bool whole = false;
+  if (!project_box(b, kf.T_w_c, kf.camera, pb, &whole) || !whole ||
+      pb.area() < options_.min_box_pixels)
+    return Sighting::kUnknown;
+  const SE3 T_c_w = kf.T_w_c.inverse();
+  const double centre_depth = (T_c_w * b.center).z();
+  // Past the sensor's range an empty reading says nothing.
+  if (centre_depth > options_.max_depth - options_.absent_range_margin) return Sighting::kUnknown;
+  for (const detect::Detection& det : kf.static_boxes)
+    if (det.label == e.object.label && iou(pb, to_box(det)) > options_.moving_iou)
+      return Sighting::kSeen;
+  const Image& d = *kf.depth;
+  const bool masked =
+      kf.static_mask && kf.static_mask->size() == static_cast<std::size_t>(d.width) * d.height;
+  const double c = std::cos(b.yaw), sn = std::sin(b.yaw);
+  const double reach = 0.5 * std::hypot(b.size.x(), b.size.y());
+  const double noise = options_.depth_noise_z2 * centre_depth * centre_depth;
+  const double grow = options_.absent_margin + 2.0 * noise;
+  int n = 0, support = 0, hidden = 0;
+  const int step = 4;
+  for (int v = static_cast<int>(pb.y0); v < static_cast<int>(pb.y1); v += step) {
+    const auto* row = d.row<std::uint16_t>(v);
+    for (int u = static_cast<int>(pb.x0); u < static_cast<int>(pb.x1); u += step) {
+      if (masked && (*kf.static_mask)[static_cast<std::size_t>(v) * d.width + u] == 0) {
+        ++n, ++hidden;  // a mover in front
+        continue;
+      }
+      if (row[u] == 0) {
+        ++n;  // no return from where a surface in range would have given one
+        continue;
+      }
+      const double z = row[u] / kf.depth_scale;
+      const Vec3 pw = kf.T_w_c * (kf.camera.unproject(Vec2(u, v)) * z);
+      if (has_floor() && pw.z() < floor_z_ + floor_cut(z)) continue;  // the floor it stands on
+      ++n;
+      const Vec3 q = pw - b.center;
+      const double du = c * q.x() + sn * q.y(), dv = -sn * q.x() + c * q.y();
+      if (std::abs(du) <= b.size.x() / 2 + grow && std::abs(dv) <= b.size.y() / 2 + grow &&
+          std::abs(q.z()) <= b.size.z() / 2 + grow)
+        ++support;
+      else if (z < centre_depth - reach - grow)
+        ++hidden;
+    }
+  }
+  if (n < options_.min_absent_samples || hidden > options_.max_hidden_share * n)
+    return Sighting::kUnknown;
+  return support >= options_.min_support_share * n ? Sighting::kSeen : Sighting::kAbsent;
 }
 
 ObjectUpdateStats ObjectDatabase::update(const ObjectKeyframe& kf) {
@@ -615,6 +753,7 @@ ObjectUpdateStats ObjectDatabase::update(const ObjectKeyframe& kf) {
   }
 
   stats.boxes = static_cast<int>(kf.static_boxes.size());
+  std::unordered_set<int> measured;
   for (Measurement& m : measure_all(kf)) {
     ++stats.measured;
     // The object sharing most of the measurement's cells, else the nearest one close enough.
@@ -636,6 +775,38 @@ ObjectUpdateStats ObjectDatabase::update(const ObjectKeyframe& kf) {
       }
     }
     if (!match) match = nearest;
+    // Measurements walking away are followed from the last of them, not from where the object
+    // stood: a push of 0.2 m a keyframe leaves the object's centre in two steps.
+    const Vec2 at = m.box.center.head<2>();
+    for (auto it = entries_.begin(); !match && it != entries_.end(); ++it) {
+      Entry& e = it->second;
+      if (e.object.label == m.label && e.displaced > 0 &&
+          (at - e.displaced_last).norm() <
+              options_.associate_factor * std::max(typical_length(e.object), 0.3))
+        match = &e;
+    }
+    // Only a view of the whole object says where it is: a part's centre walks with the
+    // viewpoint (a stall's face in a table's box, a car cut by the image border).
+    const bool whole_view = !m.cut && m.cut_towards.isZero();
+    const MotionStep step =
+        match && whole_view ? track_motion(*match, at, kf.stamp, stats) : MotionStep::kFuse;
+    if (step == MotionStep::kHold) {
+      measured.insert(match->object.id);
+      match->held.push_back({{kf.keyframe_id, std::move(m.points_c), Vec3::Zero()},
+                             m.score,
+                             m.depth,
+                             m.cut,
+                             kf.stamp});
+      continue;
+    }
+    if (step == MotionStep::kRestart) {
+      // A new place: what was seen of the object where it stood is no longer there.
+      match->held.clear();
+      match->views.clear();
+      match->object.observations = match->object.whole_observations = 0;
+      match->object.score_sum = 0.0;
+      match->mean_depth = 0.0;
+    }
     if (!match) {
       Entry e;
       e.object.id = next_id_++;
@@ -644,22 +815,39 @@ ObjectUpdateStats ObjectDatabase::update(const ObjectKeyframe& kf) {
       match = &entries_.emplace(e.object.id, std::move(e)).first->second;
       ++stats.created;
     }
-    SemanticObject& o = match->object;
-    ++o.observations;
-    o.whole_observations += m.cut ? 0 : 1;
-    o.score_sum += m.score;
-    o.first_seen = std::min(o.first_seen, kf.stamp);
-    o.last_seen = std::max(o.last_seen, kf.stamp);
-    match->mean_depth += (m.depth - match->mean_depth) / o.observations;
+    measured.insert(match->object.id);
     const Vec3 cut_c = m.cut_towards.isZero()
                            ? Vec3::Zero()
                            : Vec3(kf.T_w_c.rotation().transpose() *
                                   Vec3(m.cut_towards.x(), m.cut_towards.y(), 0.0))
                                  .normalized();
-    match->views.push_back({kf.keyframe_id, std::move(m.points_c), cut_c});
-    if (static_cast<int>(match->views.size()) > options_.max_observations_kept)
-      match->views.erase(match->views.begin());
-    refit(*match);
+    fuse(*match,
+         {{kf.keyframe_id, std::move(m.points_c), cut_c}, m.score, m.depth, m.cut, kf.stamp});
+    if (match->object.moving && static_cast<int>(match->views.size()) >= options_.still_views &&
+        to_seconds(kf.stamp - match->still_since) >= options_.still_seconds) {
+      match->object.moving = false;
+      ++stats.stopped;
+    }
+  }
+  // Where an object stood and the keyframe shows neither its box nor its surfaces, it is gone
+  // (taken away, or pushed while out of view or between keyframes).
+  for (auto it = entries_.begin(); it != entries_.end();) {
+    Entry& e = it->second;
+    // A moving object lost from view is somewhere else by now; it is found again where it stops.
+    if (e.object.moving &&
+        to_seconds(kf.stamp - e.object.last_seen) > options_.lost_mover_seconds) {
+      it = entries_.erase(it);
+      ++stats.lost_moving;
+      continue;
+    }
+    const Sighting sighting = measured.count(e.object.id) ? Sighting::kSeen : look_for(e, kf);
+    if (sighting == Sighting::kSeen) e.absent = 0;
+    if (sighting == Sighting::kAbsent && ++e.absent >= options_.absent_keyframes) {
+      it = entries_.erase(it);
+      ++stats.removed_absent;
+    } else {
+      ++it;
+    }
   }
   stats.merged = merge_duplicates();
   return stats;
@@ -686,7 +874,7 @@ std::vector<SemanticObject> ObjectDatabase::all_objects() const {
 std::vector<SemanticObject> ObjectDatabase::objects() const {
   std::vector<SemanticObject> out;
   for (const auto& [id, e] : entries_)
-    if (e.object.observations >= options_.min_observations &&
+    if (!e.object.moving && e.object.observations >= options_.min_observations &&
         e.object.whole_observations >= options_.min_whole_observations)
       out.push_back(e.object);
   return out;

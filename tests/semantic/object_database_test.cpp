@@ -96,23 +96,27 @@ detect::Detection box_of(const PinholeCamera& cam, const SE3& T_w_c, const AxisB
 const AxisBox kChair{Vec3(2.0, -0.3, 0.0), Vec3(2.5, 0.3, 0.9)};
 const AxisBox kChair2{Vec3(2.5, 1.5, 0.0), Vec3(3.0, 2.1, 0.9)};
 
-// One keyframe per pose (ids 0..), every box detected with its label.
-void update_views(ObjectDatabase& db, const std::vector<SE3>& poses,
-                  const std::vector<AxisBox>& boxes, const std::vector<std::string>& labels) {
+// One keyframe per pose (ids and seconds first_id..), each of the first `labels.size()` boxes
+// detected with its label (the rest only rendered). Returns the stats of the last update.
+ObjectUpdateStats update_views(ObjectDatabase& db, const std::vector<SE3>& poses,
+                               const std::vector<AxisBox>& boxes,
+                               const std::vector<std::string>& labels, int first_id = 0) {
   const PinholeCamera cam = camera();
+  ObjectUpdateStats stats;
   for (std::size_t k = 0; k < poses.size(); ++k) {
     const SE3& T = poses[k];
     const Image depth = render(cam, T, boxes);
     ObjectKeyframe kf;
-    kf.keyframe_id = static_cast<std::int64_t>(k);
+    kf.keyframe_id = first_id + static_cast<std::int64_t>(k);
     kf.T_w_c = T;
-    kf.stamp = from_seconds(static_cast<double>(k));
+    kf.stamp = from_seconds(static_cast<double>(kf.keyframe_id));
     kf.depth = &depth;
     kf.camera = cam;
-    for (std::size_t i = 0; i < boxes.size(); ++i)
+    for (std::size_t i = 0; i < boxes.size() && i < labels.size(); ++i)
       kf.static_boxes.push_back(box_of(cam, T, boxes[i], labels[i]));
-    db.update(kf);
+    stats = db.update(kf);
   }
+  return stats;
 }
 
 // Views from a short arc in front of the boxes; keyframe ids 0..n-1.
@@ -234,6 +238,66 @@ TEST(ObjectDatabase, AChairSeenMovingLeavesTheDatabase) {
   kf.moving_boxes.push_back(box_of(cam, T, kChair, "chair"));
   EXPECT_EQ(db.update(kf).removed_moving, 1);
   EXPECT_TRUE(db.all_objects().empty());
+}
+
+// Taken away: its place shows neither its box nor its surfaces (the wall behind it instead).
+// Three such keyframes in a row remove it; two do not.
+TEST(ObjectDatabase, AnObjectTakenAwayLeavesAfterThreeKeyframesShowItsPlaceEmpty) {
+  ObjectDatabase db;
+  std::vector<SE3> poses;
+  observe(db, 4, {kChair}, {"chair"}, &poses);
+  ASSERT_EQ(db.objects().size(), 1u);
+  const std::vector<SE3> again(poses.begin(), poses.begin() + 3);
+  update_views(db, {again[0], again[1]}, {}, {}, 10);
+  EXPECT_EQ(db.objects().size(), 1u);
+  EXPECT_EQ(update_views(db, {again[2]}, {}, {}, 12).removed_absent, 1);
+  EXPECT_TRUE(db.all_objects().empty());
+}
+
+// A detector that misses an object for a while removes nothing while the depth still shows it;
+// neither does something nearer that hides it.
+TEST(ObjectDatabase, AMissedDetectionOrAHiddenObjectStays) {
+  ObjectDatabase db;
+  std::vector<SE3> poses;
+  observe(db, 4, {kChair}, {"chair"}, &poses);
+  ASSERT_EQ(db.objects().size(), 1u);
+  EXPECT_EQ(update_views(db, poses, {kChair}, {}, 10).removed_absent, 0);
+  ASSERT_EQ(db.objects().size(), 1u);
+  // A screen between the cameras and the chair, the chair taken away behind it.
+  const AxisBox screen{Vec3(1.2, -1.5, 0.0), Vec3(1.3, 2.5, 2.0)};
+  EXPECT_EQ(update_views(db, poses, {screen}, {}, 20).removed_absent, 0);
+  EXPECT_EQ(db.objects().size(), 1u);
+}
+
+// Pushed while the detector keeps calling it a chair and no one flags it as moving: its
+// measurements walk away from where it stood, it leaves the report, follows them, and returns
+// where they stay still, under the same id.
+TEST(ObjectDatabase, AChairWhoseMeasurementsWalkAwayLeavesAndReturnsWhereItStops) {
+  ObjectDatabase db;
+  std::vector<SE3> poses;
+  observe(db, 4, {kChair}, {"chair"}, &poses);
+  ASSERT_EQ(db.objects().size(), 1u);
+  const int id = db.objects()[0].id;
+  const SE3 T = poses[1];
+  int first_id = 10, left = -1;
+  AxisBox chair = kChair;
+  for (int k = 0; k < 5; ++k) {  // 0.2 m a keyframe (a second) sideways
+    chair.lo.y() += 0.2;
+    chair.hi.y() += 0.2;
+    update_views(db, {T}, {chair}, {"chair"}, first_id++);
+    if (left < 0 && db.objects().empty()) left = k;
+  }
+  EXPECT_EQ(left, 3);  // three measurements past a quarter metre (the first step was within)
+  EXPECT_TRUE(db.objects().empty());  // still moving
+  ASSERT_EQ(db.all_objects().size(), 1u);
+  EXPECT_TRUE(db.all_objects()[0].moving);
+  for (int k = 0; k < 3; ++k) update_views(db, {T}, {chair}, {"chair"}, first_id++);
+  const auto objs = db.objects();
+  ASSERT_EQ(objs.size(), 1u);
+  EXPECT_EQ(objs[0].id, id);
+  EXPECT_FALSE(objs[0].moving);
+  EXPECT_NEAR(objs[0].box.center.y(), (chair.lo.y() + chair.hi.y()) / 2, 0.06);
+  EXPECT_LE(objs[0].observations, 4);  // only views of where it stands now
 }
 
 TEST(ObjectDatabase, WritesObjectsJson) {
