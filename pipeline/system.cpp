@@ -854,8 +854,16 @@ struct System::Impl {
       ok.static_mask = &mask;
       ok.static_boxes = std::move(job->static_boxes);
       ok.moving_boxes = std::move(job->moving_boxes);
-      objects.update(ok);
+      const semantic::ObjectUpdateStats os = objects.update(ok);
       stats.record("mapping.objects", ms_since(t0));
+      // How the database changed its mind (timing.json counters): objects removed by a moving
+      // box, seen moving by their own measurements, back where they stopped, gone from their
+      // place, lost while moving.
+      stats.count("objects.removed_moving", static_cast<std::size_t>(os.removed_moving));
+      stats.count("objects.started_moving", static_cast<std::size_t>(os.started_moving));
+      stats.count("objects.stopped", static_cast<std::size_t>(os.stopped));
+      stats.count("objects.removed_absent", static_cast<std::size_t>(os.removed_absent));
+      stats.count("objects.lost_moving", static_cast<std::size_t>(os.lost_moving));
       report_objects(job->t, job->keyframe_id);
     }
   }
