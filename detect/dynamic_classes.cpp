@@ -13,6 +13,11 @@ const std::vector<std::string>& default_dynamic_classes() {
   return kDefault;
 }
 
+const std::vector<std::string>& default_parkable_classes() {
+  static const std::vector<std::string> kDefault = {"bicycle", "car", "motorcycle", "bus", "truck"};
+  return kDefault;
+}
+
 DynamicClassList::DynamicClassList() : DynamicClassList(default_dynamic_classes()) {}
 
 DynamicClassList::DynamicClassList(std::vector<std::string> labels) {

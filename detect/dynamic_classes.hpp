@@ -10,6 +10,11 @@ namespace kestrel::detect {
 // person, bicycle, car, motorcycle, bus, truck, dog, cat, horse, bird, sheep, cow.
 const std::vector<std::string>& default_dynamic_classes();
 
+// The dynamic classes that park: vehicles (bicycle, car, motorcycle, bus, truck), which stand
+// still for hours and are scenery meanwhile (dynamic/parked_boxes.hpp); people and animals
+// stand still only to move again.
+const std::vector<std::string>& default_parkable_classes();
+
 class DynamicClassList {
  public:
   DynamicClassList();  // default_dynamic_classes()

@@ -256,6 +256,8 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
   out.box_of.assign(n, -1);
   out.prev_points.assign(n, Vec2(-1.0, -1.0));
   out.box_moving.assign(in.boxes.size(), false);
+  out.box_features.assign(in.boxes.size(), 0);
+  out.box_violating.assign(in.boxes.size(), 0);
   if (n == 0 || opt.mode == FilterMode::kOff) return out;
 
   const bool use_boxes = opt.mode != FilterMode::kGeometryOnly;
@@ -654,10 +656,15 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
       // Features shared with another box say little about this one; count exclusive ones.
       if (boxes_of[i].size() > 1) continue;
       ++inside;
-      if (score[i] > thr_in[i]) {
+      const bool off = score[i] > thr_in[i];
+      if (off) {
         ++violating;
         fx.push_back(pts_cur[i].x - pts_prev[i].x);
         fy.push_back(pts_cur[i].y - pts_prev[i].y);
+      }
+      if (foreground[i] && residual3d[i] >= 0) {
+        ++out.box_features[b];
+        out.box_violating[b] += off ? 1 : 0;
       }
     }
     out.box_moving[b] = violating >= 3 && violating >= opt.moving_box_fraction * inside;
@@ -669,6 +676,26 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
 
   // 5. Labels.
   for (std::size_t i = 0; i < n; ++i) {
+    // Only in still parked boxes: scenery, judged as outside any box.
+    const bool parked_only =
+        !boxes_of[i].empty() && std::all_of(boxes_of[i].begin(), boxes_of[i].end(), [&](int b) {
+          return in.boxes[static_cast<std::size_t>(b)].parked && !out.box_moving[b];
+        });
+    if (parked_only) {
+      if (!valid[i]) {
+        out.labels[i] = FeatureLabel::kUnknown;
+        out.reasons[i] = LabelReason::kNoFlow;
+      } else if (depth_moved(i) && score[i] <= thr_out[i]) {
+        out.labels[i] = FeatureLabel::kDynamic;
+        out.reasons[i] = LabelReason::kDepthChange;
+      } else if (score[i] > thr_out[i]) {
+        out.labels[i] = FeatureLabel::kDynamic;
+        out.reasons[i] = LabelReason::kEpipolarInBox;
+      } else {
+        out.reasons[i] = LabelReason::kStaticInBox;
+      }
+      continue;
+    }
     // Background seen through a box (depth known, not at the object's depth) is judged like
     // any feature outside boxes.
     const bool background_in_box =

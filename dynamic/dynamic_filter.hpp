@@ -51,6 +51,10 @@ const char* to_string(LabelReason r);
 
 struct BoxRegion {
   float x_min = 0, y_min = 0, x_max = 0, y_max = 0;
+  // A vehicle seen still long enough (parked_boxes.hpp): its features are judged by geometry
+  // alone, like scenery, unless the box is found moving this frame. Kept out of the ego-motion
+  // fit all the same.
+  bool parked = false;
   bool contains(float x, float y) const {
     return x >= x_min && x < x_max && y >= y_min && y < y_max;
   }
@@ -198,6 +202,11 @@ struct DynamicFilterResult {
   std::vector<int> box_of;           // index of the box holding the feature, -1 none
   std::vector<Vec2> prev_points;     // where the flow puts it in the previous frame; (-1,-1) lost
   std::vector<bool> box_moving;      // per input box
+  // Per input box: the object's own features (at its depth, in no other box) judged in 3D (flow
+  // and depth), and how many of them are off the ego-motion. The 2D test cannot see a point
+  // moving along its epipolar line (a car driving along the camera's path); the 3D one can.
+  std::vector<int> box_features;
+  std::vector<int> box_violating;
   bool geometry_valid = false;
   bool degenerate_motion = false;     // little translation: homography test where depth is missing
   bool motion_3d = false;             // ego-motion from depth + PnP was used

@@ -196,6 +196,42 @@ TEST(DynamicFilter, DepthGivesEgoMotionWithoutParallaxAmbiguity) {
   EXPECT_GE(h.kept, 95.0);
 }
 
+// A parked car is scenery: its box marked parked, its features are judged by geometry like any
+// feature outside boxes and kept while it stands; once it moves, its box is found moving from
+// its own features and they go, parked or not.
+TEST(DynamicFilter, ParkedBoxIsJudgedByGeometryAndLosesItsFeaturesWhenItMoves) {
+  const Scene still = make_scene({0.02, 0, 0}, {0, 0, 0});
+  const Image p1 = to_image(still.prev), c1 = to_image(still.cur);
+  DynamicFilterInput in = input_for(still, p1, c1);
+  in.depth_m = depths_of(still, 0.0);
+  in.boxes = {mover_box(still)};
+  in.boxes[0].parked = true;
+  const DynamicFilterResult r = classify_features(in, DynamicFilterOptions{});
+  ASSERT_EQ(r.box_features.size(), 1u);
+  EXPECT_GT(r.box_features[0], 20);
+  EXPECT_FALSE(r.box_moving[0]);
+  int in_box = 0, kept = 0;
+  for (std::size_t i = 0; i < still.points.size(); ++i) {
+    if (r.box_of[i] != 0) continue;
+    ++in_box;
+    kept += r.labels[i] != FeatureLabel::kDynamic;
+  }
+  EXPECT_GT(in_box, 20);
+  EXPECT_GE(kept, in_box * 95 / 100);
+
+  const Scene moving = make_scene({0.02, 0, 0}, {0, -0.05, 0});
+  const Image p2 = to_image(moving.prev), c2 = to_image(moving.cur);
+  DynamicFilterInput in2 = input_for(moving, p2, c2);
+  in2.depth_m = depths_of(moving, 0.0);
+  in2.boxes = {mover_box(moving)};
+  in2.boxes[0].parked = true;
+  const DynamicFilterResult r2 = classify_features(in2, DynamicFilterOptions{});
+  EXPECT_TRUE(r2.box_moving[0]);
+  const Score h = score(moving, r2);
+  EXPECT_GE(h.removed, 95.0);
+  EXPECT_GE(h.kept, 95.0);
+}
+
 // A walker beyond the sensor's range standing still, in a detector's box: with no depth on it
 // the box cannot be split into the object and its background, and a still walker passes the
 // epipolar test. Its features without depth are dynamic (far_box_no_depth_dynamic); outside the
