@@ -1,8 +1,10 @@
 #include "semantic/object_database.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <filesystem>
+#include <string_view>
 #include <unordered_set>
 
 #include "core/error.hpp"
@@ -39,6 +41,36 @@ double footprint(const UprightBox& b) { return std::max(b.size.x(), b.size.y());
 double typical_length(const SemanticObject& o) {
   const auto prior = footprint_prior(o.label);
   return prior ? prior->length : footprint(o.box);
+}
+
+// Labels a detector gives one object by turns: YOLO calls a parked pickup a car in one view and
+// a truck in the next (ugv-loop). Such entries are one object, under the label seen most.
+bool confusable(const std::string& a, const std::string& b) {
+  if (a == b) return true;
+  static const std::array<std::string_view, 3> kVehicles = {"car", "truck", "bus"};
+  const auto in = [](const std::string& l) {
+    return std::find(kVehicles.begin(), kVehicles.end(), l) != kVehicles.end();
+  };
+  return in(a) && in(b);
+}
+
+void vote(std::vector<std::pair<std::string, double>>& votes, const std::string& label,
+          double score) {
+  auto it =
+      std::find_if(votes.begin(), votes.end(), [&](const auto& v) { return v.first == label; });
+  if (it == votes.end()) {
+    votes.emplace_back(label, score);
+  } else {
+    it->second += score;
+  }
+}
+
+const std::string& elected(const std::vector<std::pair<std::string, double>>& votes,
+                           const std::string& fallback) {
+  if (votes.empty()) return fallback;
+  return std::max_element(votes.begin(), votes.end(),
+                          [](const auto& x, const auto& y) { return x.second < y.second; })
+      ->first;
 }
 
 // Centres closer than `factor` x the larger footprint (labels are compared by the caller).
@@ -573,7 +605,9 @@ int ObjectDatabase::merge_duplicates() {
     again = false;
     for (auto a = entries_.begin(); a != entries_.end() && !again; ++a) {
       for (auto b = std::next(a); b != entries_.end(); ++b) {
-        if (a->second.object.label != b->second.object.label) continue;
+        if (!confusable(a->second.object.label, b->second.object.label)) continue;
+        const bool relabel = a->second.object.label != b->second.object.label;
+        if (relabel && (a->second.object.moving || b->second.object.moving)) continue;
         // A moving object passing another of its kind is still two objects; but one that
         // appeared, still, where the moving one went while it moved is where it stopped (seen
         // there first after a gap in the views).
@@ -598,6 +632,8 @@ int ObjectDatabase::merge_duplicates() {
           continue;
         Entry& keep = a->second;
         Entry& gone = b->second;
+        for (const auto& [label, score] : gone.votes) vote(keep.votes, label, score);
+        keep.object.label = elected(keep.votes, keep.object.label);
         for (auto& v : gone.views) keep.views.push_back(std::move(v));
         keep.mean_depth = std::max(keep.mean_depth, gone.mean_depth);
         keep.object.observations += gone.object.observations;
@@ -611,6 +647,7 @@ int ObjectDatabase::merge_duplicates() {
         again = true;
         break;
       }
+      if (again) break;  // `a` may be gone: start over
     }
   }
   return merged;
@@ -623,6 +660,10 @@ void ObjectDatabase::fuse(Entry& e, HeldView&& v) const {
   o.score_sum += v.score;
   o.first_seen = std::min(o.first_seen, v.stamp);
   o.last_seen = std::max(o.last_seen, v.stamp);
+  if (!v.label.empty()) {
+    vote(e.votes, v.label, v.score);
+    o.label = elected(e.votes, o.label);
+  }
   e.mean_depth += (v.depth - e.mean_depth) / o.observations;
   e.views.push_back(std::move(v.view));
   if (static_cast<int>(e.views.size()) > options_.max_observations_kept)
@@ -688,7 +729,7 @@ ObjectDatabase::Sighting ObjectDatabase::look_for(const Entry& e, const ObjectKe
   // Past the sensor's range an empty reading says nothing.
   if (centre_depth > options_.max_depth - options_.absent_range_margin) return Sighting::kUnknown;
   for (const detect::Detection& det : kf.static_boxes)
-    if (det.label == e.object.label && iou(pb, to_box(det)) > options_.moving_iou)
+    if (confusable(det.label, e.object.label) && iou(pb, to_box(det)) > options_.moving_iou)
       return Sighting::kSeen;
   const Image& d = *kf.depth;
   const bool masked =
@@ -741,7 +782,7 @@ ObjectUpdateStats ObjectDatabase::update(const ObjectKeyframe& kf) {
   for (const detect::Detection& m : kf.moving_boxes) {
     for (auto it = entries_.begin(); it != entries_.end();) {
       PixelBox pb;
-      if (it->second.object.label == m.label &&
+      if (confusable(it->second.object.label, m.label) &&
           project_box(it->second.object.box, kf.T_w_c, kf.camera, pb) &&
           iou(pb, to_box(m)) > options_.moving_iou) {
         it = entries_.erase(it);
@@ -762,7 +803,7 @@ ObjectUpdateStats ObjectDatabase::update(const ObjectKeyframe& kf) {
     double best_shared = options_.min_overlap, best_dist = 1e18;
     const auto cells = voxels_of(m.points_w);
     for (auto& [id, e] : entries_) {
-      if (e.object.label != m.label) continue;
+      if (!confusable(e.object.label, m.label)) continue;
       const double shared = overlap(cells, e.voxels);
       if (shared >= best_shared) {
         best_shared = shared;
@@ -780,7 +821,7 @@ ObjectUpdateStats ObjectDatabase::update(const ObjectKeyframe& kf) {
     const Vec2 at = m.box.center.head<2>();
     for (auto it = entries_.begin(); !match && it != entries_.end(); ++it) {
       Entry& e = it->second;
-      if (e.object.label == m.label && e.displaced > 0 &&
+      if (confusable(e.object.label, m.label) && e.displaced > 0 &&
           (at - e.displaced_last).norm() <
               options_.associate_factor * std::max(typical_length(e.object), 0.3))
         match = &e;
@@ -796,7 +837,8 @@ ObjectUpdateStats ObjectDatabase::update(const ObjectKeyframe& kf) {
                              m.score,
                              m.depth,
                              m.cut,
-                             kf.stamp});
+                             kf.stamp,
+                             m.label});
       continue;
     }
     if (step == MotionStep::kRestart) {
@@ -821,8 +863,12 @@ ObjectUpdateStats ObjectDatabase::update(const ObjectKeyframe& kf) {
                            : Vec3(kf.T_w_c.rotation().transpose() *
                                   Vec3(m.cut_towards.x(), m.cut_towards.y(), 0.0))
                                  .normalized();
-    fuse(*match,
-         {{kf.keyframe_id, std::move(m.points_c), cut_c}, m.score, m.depth, m.cut, kf.stamp});
+    fuse(*match, {{kf.keyframe_id, std::move(m.points_c), cut_c},
+                  m.score,
+                  m.depth,
+                  m.cut,
+                  kf.stamp,
+                  m.label});
     if (match->object.moving && static_cast<int>(match->views.size()) >= options_.still_views &&
         to_seconds(kf.stamp - match->still_since) >= options_.still_seconds) {
       match->object.moving = false;

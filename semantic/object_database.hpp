@@ -188,6 +188,7 @@ class ObjectDatabase {
     double depth = 0.0;
     bool cut = false;
     Timestamp stamp = 0;
+    std::string label;  // as the detector named it this time
   };
   struct Entry {
     SemanticObject object;
@@ -197,8 +198,11 @@ class ObjectDatabase {
     int displaced = 0;                         // measurements in a row far from its centre
     Vec2 displaced_last = Vec2::Zero();        // the latest of them
     Timestamp displaced_since = 0;
-    double displaced_away = 0.0;   // the first one's distance from the centre
-    std::vector<HeldView> held;    // the streak's views, fused if it proves no move
+    double displaced_away = 0.0;  // the first one's distance from the centre
+    std::vector<HeldView> held;   // the streak's views, fused if it proves no move
+    // Detector score summed per label its views came with: the object takes the highest (a
+    // parked pickup is a car in one view, a truck in the next).
+    std::vector<std::pair<std::string, double>> votes;
     Vec2 still_at = Vec2::Zero();  // while moving: where its latest stop began
     Timestamp still_since = 0;
     int absent = 0;  // keyframes in a row that showed its place without it

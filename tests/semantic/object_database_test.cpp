@@ -223,6 +223,25 @@ TEST(ObjectDatabase, RareLabelsAreNotReported) {
   EXPECT_EQ(db.all_objects()[0].observations, 2);
 }
 
+// YOLO calls a parked pickup a car in one view and a truck in the next: one object, under the
+// label its views gave most (by detector score), not a car and a truck on the same spot.
+TEST(ObjectDatabase, AVehicleCalledCarThenTruckIsOneObjectUnderTheLabelSeenMost) {
+  ObjectDatabase db;
+  const std::vector<SE3> poses = views_from_front(0.8);
+  int id = 0;
+  for (const char* label : {"truck", "truck", "car", "car", "car"})
+    update_views(db, {poses[static_cast<std::size_t>(id)]}, {kChair}, {label}, id), ++id;
+  const auto objs = db.objects();
+  ASSERT_EQ(objs.size(), 1u);
+  EXPECT_EQ(objs[0].label, "car");
+  EXPECT_EQ(objs[0].observations, 5);
+  // A chair is never a car.
+  ObjectDatabase other;
+  update_views(other, {poses[0], poses[1], poses[2]}, {kChair}, {"chair"});
+  update_views(other, {poses[3], poses[4]}, {kChair}, {"car"}, 3);
+  ASSERT_EQ(other.all_objects().size(), 2u);
+}
+
 TEST(ObjectDatabase, AChairSeenMovingLeavesTheDatabase) {
   ObjectDatabase db;
   observe(db, 4, {kChair}, {"chair"});
