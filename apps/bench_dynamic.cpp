@@ -36,6 +36,7 @@ struct Row {
   int detector;  // index below; -1 none
   dynamic::FilterMode mode;
   int long_gap = 0;  // multi-frame evidence against frame k - long_gap; 0 off
+  bool park = true;  // vehicles seen still are parked (DynamicEvalOptions::park_vehicles)
 };
 
 enum : int { kYolo = 0, kOracle = 1, kOracleFn20 = 2, kOracleUnknown = 3 };
@@ -54,6 +55,10 @@ const Row kRows[] = {
     {"hybrid+oracle-fn20, k-5", kOracleFn20, dynamic::FilterMode::kHybrid, 5},
     {"hybrid+oracle, unknown-class mover, k-5", kOracleUnknown, dynamic::FilterMode::kHybrid, 5},
     {"geometry, k-5", -1, dynamic::FilterMode::kGeometryOnly, 5},
+    // Every vehicle a mover, parked ones too (as before parked_boxes): what parking gains or
+    // costs.
+    {"hybrid+yolo, never parked", kYolo, dynamic::FilterMode::kHybrid, 0, false},
+    {"hybrid+oracle, never parked", kOracle, dynamic::FilterMode::kHybrid, 0, false},
 };
 
 // The moving mover of a dynamic class that covers the most box area over the sequence.
@@ -154,6 +159,7 @@ nlohmann::json bench_dynamic(const AreaOptions& o) {
       opt.filter.mode = row.mode;
       opt.detector = row.detector;
       opt.long_gap = row.long_gap;
+      opt.park_vehicles = row.park;
       std::size_t on_unknown = 0, unknown_removed = 0;
       opt.on_frame = [&](const pipeline::DynamicEvalFrame& f, const dynamic::DynamicFilterInput& in,
                          const dynamic::DynamicFilterResult& r) {

@@ -38,6 +38,7 @@ struct RunFlags {
   bool half_resolution_flow = false;
   bool inertial_ba = false;
   bool no_gyro_prior = false;
+  bool no_park = false;
   bool realtime = false;
   int max_in_flight = 2;
   double duration = -1.0;  // sim: scenes only
@@ -214,6 +215,8 @@ void setup_run(CLI::App& app) {
                 "visual-inertial local BA: keyframes joined by the IMU's pre-integration");
   cmd->add_flag("--no-gyro-prior", flags->no_gyro_prior,
                 "no gyro rotation prior in the per-frame pose optimization");
+  cmd->add_flag("--no-park", flags->no_park,
+                "vehicles are movers even when they stand still (no parked vehicles in the maps)");
   cmd->add_flag("--half-res-flow", flags->half_resolution_flow,
                 "the dynamic filter's flow on the half-resolution image: a quarter of the cost");
   cmd->add_flag("--realtime", flags->realtime,
@@ -268,6 +271,7 @@ void setup_run(CLI::App& app) {
     opt.half_resolution_flow = flags->half_resolution_flow;
     opt.inertial_ba = flags->inertial_ba;
     opt.gyro_rotation_prior = !flags->no_gyro_prior;
+    opt.park_vehicles = !flags->no_park;
     const RunSummary summary = kestrel::pipeline::run_sequence(*source, opt);
     print_summary("run", summary);
     kestrel::report::ReportInput report;

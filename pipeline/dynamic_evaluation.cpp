@@ -78,6 +78,11 @@ DynamicEvalResult evaluate_dynamic_filter(const DynamicEvalScene& scene,
   const detect::DynamicClassList classes = options.dynamic_classes.empty()
                                                ? detect::DynamicClassList()
                                                : detect::DynamicClassList(options.dynamic_classes);
+  const detect::DynamicClassList parkable =
+      options.parkable_classes.empty()
+          ? detect::DynamicClassList(detect::default_parkable_classes())
+          : detect::DynamicClassList(options.parkable_classes);
+  dynamic::ParkedBoxTracker parked(options.parked);
   DynamicEvalResult out;
   // The last judged frame's pyramid, the next one's previous (as the System keeps it); the
   // filter checks it was built from the image it is given as previous and rebuilds otherwise.
@@ -114,10 +119,14 @@ DynamicEvalResult evaluate_dynamic_filter(const DynamicEvalScene& scene,
         throw Error("evaluate_dynamic_filter: detector index " + std::to_string(options.detector) +
                     " out of range (" + std::to_string(f.detections.size()) + " loaded)");
       }
+      std::vector<bool> parkable_box;
       for (const auto& d : f.detections[static_cast<std::size_t>(options.detector)].boxes) {
-        if (classes.is_dynamic_class(d.label))
+        if (classes.is_dynamic_class(d.label)) {
           in.boxes.push_back({d.x_min, d.y_min, d.x_max, d.y_max});
+          parkable_box.push_back(parkable.is_dynamic_class(d.label));
+        }
       }
+      if (options.park_vehicles) parked.assign(f.t, in.boxes, parkable_box);
     }
     dynamic::DynamicFilterResult r;
     if (k == 0 || options.filter.mode == dynamic::FilterMode::kOff) {
@@ -132,6 +141,7 @@ DynamicEvalResult evaluate_dynamic_filter(const DynamicEvalScene& scene,
       in.prev_pyramid = &last_pyramid;
       in.cur_pyramid_out = &cur_pyramid;
       r = dynamic::classify_features(in, options.filter);
+      if (options.park_vehicles) parked.observe(r);
       last_pyramid = std::move(cur_pyramid);
       in.prev_pyramid = nullptr;
       in.cur_pyramid_out = nullptr;

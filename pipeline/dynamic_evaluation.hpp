@@ -16,6 +16,7 @@
 #include "detect/detection.hpp"
 #include "detect/detector.hpp"
 #include "dynamic/dynamic_filter.hpp"
+#include "dynamic/parked_boxes.hpp"
 #include "dynamic/removal_metrics.hpp"
 
 namespace kestrel::pipeline {
@@ -49,8 +50,12 @@ struct DynamicEvalOptions {
   dynamic::DynamicFilterOptions filter;
   int detector = -1;                         // index into the frames' detections; -1: no boxes
   std::vector<std::string> dynamic_classes;  // empty: detect::default_dynamic_classes()
-  bool prev_depth = true;                    // give the filter the previous frame's depth image
-  int gap = 1;  // judge frame k against frame k - gap (the first ones against 0)
+  // Parked vehicles judged as scenery, as the System does (SystemOptions::park_vehicles).
+  bool park_vehicles = true;
+  std::vector<std::string> parkable_classes;  // empty: detect::default_parkable_classes()
+  dynamic::ParkedBoxOptions parked;
+  bool prev_depth = true;  // give the filter the previous frame's depth image
+  int gap = 1;             // judge frame k against frame k - gap (the first ones against 0)
   // Multi-frame evidence: also judge frame k against frame k - long_gap and combine the two
   // (dynamic::combine_baselines); 0: off.
   int long_gap = 0;

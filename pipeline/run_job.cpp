@@ -164,6 +164,7 @@ RunSummary run_sequence(io::MeasurementSource& source, const RunOptions& options
   if (options.half_resolution_flow) dynamic::use_half_resolution_flow(sys_opt.dynamic);
   sys_opt.inertial_ba = options.inertial_ba;
   sys_opt.gyro_rotation_prior = options.gyro_rotation_prior;
+  sys_opt.park_vehicles = options.park_vehicles;
   // With ground truth, the run's world is the truth's (nearest pose within 20 ms of the first
   // frame), so maps and objects can be scored against it; APE aligns anyway.
   if (auto gt = source.ground_truth(); gt && !gt->empty()) {

@@ -32,6 +32,7 @@ struct RunOptions {
   bool half_resolution_flow = false;  // dynamic::use_half_resolution_flow
   bool inertial_ba = false;           // SystemOptions::inertial_ba
   bool gyro_rotation_prior = true;    // SystemOptions::gyro_rotation_prior
+  bool park_vehicles = true;          // SystemOptions::park_vehicles
   std::string out_dir;                // trajectory.txt, timing.json, summary.json
   std::string models_dir;             // "" = find ../shared/models
   bool progress = true;

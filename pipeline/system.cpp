@@ -100,6 +100,8 @@ struct System::Impl {
   SystemOptions options;
   std::unique_ptr<detect::Detector> detector;
   detect::DynamicClassList dynamic_classes;
+  detect::DynamicClassList parkable_classes;
+  dynamic::ParkedBoxTracker parked_boxes;  // tracking thread
   tracking::Tracker tracker;
   std::unique_ptr<tracking::StereoMatcher> stereo;  // stereo calibrations only
 
@@ -209,6 +211,10 @@ struct System::Impl {
         dynamic_classes(options.dynamic_classes.empty()
                             ? detect::DynamicClassList()
                             : detect::DynamicClassList(options.dynamic_classes)),
+        parkable_classes(options.parkable_classes.empty()
+                             ? detect::DynamicClassList(detect::default_parkable_classes())
+                             : detect::DynamicClassList(options.parkable_classes)),
+        parked_boxes(options.parked),
         tracker(c.camera,
                 [&] {
                   tracking::TrackerOptions t = options.tracker;
@@ -555,6 +561,7 @@ struct System::Impl {
     // Boxes for this frame.
     std::vector<dynamic::BoxRegion> boxes;
     std::vector<detect::Detection> dynamic_dets, static_dets;
+    std::vector<bool> parkable;  // per box: a vehicle, which may park
     if (detector) {
       const auto t0 = Clock::now();
       const auto set = options.sequential
@@ -572,6 +579,15 @@ struct System::Impl {
         }
       }
       detections.tracked_up_to(frame.t);
+      for (const auto& d : dynamic_dets)
+        parkable.push_back(options.park_vehicles && parkable_classes.is_dynamic_class(d.label));
+      if (options.park_vehicles) {
+        parked_boxes.assign(frame.t, boxes, parkable);
+        // Boxes (one per frame) of vehicles taken as parked: scenery for tracking and the maps.
+        stats.count("detection.parked_boxes",
+                    static_cast<std::size_t>(std::count_if(
+                        boxes.begin(), boxes.end(), [](const auto& b) { return b.parked; })));
+      }
     }
     report.detections = static_cast<int>(boxes.size());
     report.boxes = boxes;
@@ -633,6 +649,7 @@ struct System::Impl {
         in.prior_rotation_sigma_rad = prior->rotation_sigma;
       }
       r = dynamic::classify_features(in, options.dynamic);
+      if (options.park_vehicles) parked_boxes.observe(r);
       for (std::size_t i = 0; i < keep.size(); ++i) {
         keep[i] = r.labels[i] != dynamic::FeatureLabel::kDynamic;
       }
@@ -808,9 +825,23 @@ struct System::Impl {
       job.frame = frame;
       // Movers never reach the maps: detected dynamic-class boxes and a patch around every
       // feature the filter rejected (movers no detector caught) are masked out.
-      for (const auto& b : boxes) {
+      // Parked vehicles are scenery: mapped, and objects for the database.
+      for (std::size_t k = 0; k < boxes.size(); ++k) {
+        const auto& b = boxes[k];
+        if (b.parked) {
+          static_dets.push_back(std::move(dynamic_dets[k]));
+          continue;
+        }
         job.masked.push_back({static_cast<int>(b.x_min), static_cast<int>(b.y_min),
                               static_cast<int>(b.x_max) + 1, static_cast<int>(b.y_max) + 1});
+        // A vehicle removes the object under its box only when its own features, judged in
+        // 3D, mostly moved: one too far to judge (no depth, too few features) may be the parked
+        // car the database holds, and a box judged moving from its 2D flow may be the
+        // background's it holds (the object in front stands still).
+        const bool seen_moving = k < r.box_features.size() &&
+                                 r.box_features[k] >= options.parked.min_features &&
+                                 r.box_violating[k] > r.box_features[k] / 2;
+        if (!parkable[k] || seen_moving) job.moving_boxes.push_back(std::move(dynamic_dets[k]));
       }
       for (std::size_t i = 0; i < report.feature_px.size(); ++i) {
         if (!report.feature_dynamic[i]) continue;
@@ -820,7 +851,6 @@ struct System::Impl {
             {u - kRejectedPatch, v - kRejectedPatch, u + kRejectedPatch, v + kRejectedPatch});
       }
       job.static_boxes = std::move(static_dets);
-      job.moving_boxes = std::move(dynamic_dets);
       const auto tq = Clock::now();
       mapping_jobs.push(std::move(job));
       stats.record("mapping.queue_wait", ms_since(tq));

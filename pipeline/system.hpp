@@ -21,6 +21,7 @@
 #include "core/trajectory.hpp"
 #include "detect/detector.hpp"
 #include "dynamic/dynamic_filter.hpp"
+#include "dynamic/parked_boxes.hpp"
 #include "dynamic/removal_metrics.hpp"
 #include "imu/inertial_predictor.hpp"
 #include "loop/loop_gate.hpp"
@@ -38,6 +39,12 @@ struct SystemOptions {
   std::size_t frame_queue = 8;
   std::size_t detection_queue = 2;
   std::vector<std::string> dynamic_classes;  // empty: detect/dynamic_classes defaults
+  // Vehicles seen still long enough are parked (dynamic/parked_boxes.hpp): judged by geometry
+  // alone, mapped and given to the object database like any static object. Off: every
+  // dynamic-class box is a mover's.
+  bool park_vehicles = true;
+  std::vector<std::string> parkable_classes;  // empty: detect::default_parkable_classes()
+  dynamic::ParkedBoxOptions parked;
   // World frame: the body pose this returns for the first frame's stamp (e.g. the ground
   // truth's, so maps and objects compare with a simulated world); when it is unset or returns
   // nothing, gravity-aligned from the IMU, else the first camera pose.
