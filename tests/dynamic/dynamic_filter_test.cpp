@@ -200,13 +200,17 @@ TEST(DynamicFilter, DepthGivesEgoMotionWithoutParallaxAmbiguity) {
 // feature outside boxes and kept while it stands; once it moves, its box is found moving from
 // its own features and they go, parked or not.
 TEST(DynamicFilter, ParkedBoxIsJudgedByGeometryAndLosesItsFeaturesWhenItMoves) {
+  // The mover's box marked parked, judged with depth.
+  const auto judge_parked = [](const Scene& s) {
+    const Image prev = to_image(s.prev), cur = to_image(s.cur);
+    DynamicFilterInput in = input_for(s, prev, cur);
+    in.depth_m = depths_of(s, 0.0);
+    in.boxes = {mover_box(s)};
+    in.boxes[0].parked = true;
+    return classify_features(in, DynamicFilterOptions{});
+  };
   const Scene still = make_scene({0.02, 0, 0}, {0, 0, 0});
-  const Image p1 = to_image(still.prev), c1 = to_image(still.cur);
-  DynamicFilterInput in = input_for(still, p1, c1);
-  in.depth_m = depths_of(still, 0.0);
-  in.boxes = {mover_box(still)};
-  in.boxes[0].parked = true;
-  const DynamicFilterResult r = classify_features(in, DynamicFilterOptions{});
+  const DynamicFilterResult r = judge_parked(still);
   ASSERT_EQ(r.box_features.size(), 1u);
   EXPECT_GT(r.box_features[0], 20);
   EXPECT_FALSE(r.box_moving[0]);
@@ -220,12 +224,7 @@ TEST(DynamicFilter, ParkedBoxIsJudgedByGeometryAndLosesItsFeaturesWhenItMoves) {
   EXPECT_GE(kept, in_box * 95 / 100);
 
   const Scene moving = make_scene({0.02, 0, 0}, {0, -0.05, 0});
-  const Image p2 = to_image(moving.prev), c2 = to_image(moving.cur);
-  DynamicFilterInput in2 = input_for(moving, p2, c2);
-  in2.depth_m = depths_of(moving, 0.0);
-  in2.boxes = {mover_box(moving)};
-  in2.boxes[0].parked = true;
-  const DynamicFilterResult r2 = classify_features(in2, DynamicFilterOptions{});
+  const DynamicFilterResult r2 = judge_parked(moving);
   EXPECT_TRUE(r2.box_moving[0]);
   const Score h = score(moving, r2);
   EXPECT_GE(h.removed, 95.0);
