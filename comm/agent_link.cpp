@@ -64,10 +64,16 @@ void AgentLink::publish(const Message& m) {
   if (std::holds_alternative<PoseMsg>(m) || std::holds_alternative<DetectionsMsg>(m)) qos = 0;
   if (std::holds_alternative<StatusMsg>(m)) retain = true;
   if (const auto* objects = std::get_if<ObjectsMsg>(&m)) {
+    // Numbered and handed to the client under one lock, so that seq follows the outbox order
+    // even when the reconnect hook sends a snapshot meanwhile.
     std::lock_guard lock(mutex_);
     if (objects->full) objects_.clear();
     for (const auto& o : objects->objects) objects_[o.id] = o;
     for (auto id : objects->removed) objects_.erase(id);
+    ObjectsMsg numbered = *objects;
+    numbered.seq = next_objects_seq_++;
+    client_->publish(topic, encode(Message{std::move(numbered)}, options_.encoding), qos, retain);
+    return;
   }
   if (const auto* status = std::get_if<StatusMsg>(&m); status && status->role.empty()) {
     StatusMsg s = *status;  // the link knows the role; telemetry sources need not
@@ -82,10 +88,9 @@ void AgentLink::publish_objects_snapshot() {
   ObjectsMsg snap;
   snap.t = wall_clock_ns();
   snap.full = true;
-  {
-    std::lock_guard lock(mutex_);
-    for (const auto& [id, o] : objects_) snap.objects.push_back(o);
-  }
+  std::lock_guard lock(mutex_);
+  for (const auto& [id, o] : objects_) snap.objects.push_back(o);
+  snap.seq = next_objects_seq_++;
   client_->publish(topic_of(options_.id, "objects"), encode(snap, options_.encoding), 1, true);
 }
 

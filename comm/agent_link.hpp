@@ -66,6 +66,7 @@ class AgentLink {
   mutable std::mutex mutex_;
   CommandDedup dedup_;
   std::map<std::uint32_t, ObjectInfo> objects_;
+  std::uint64_t next_objects_seq_ = first_objects_seq(wall_clock_ns());
   AgentLinkCounts counts_;
 };
 

@@ -189,6 +189,7 @@ json to_json(const Message& msg, Encoding e) {
           j["df"] = m.dynamic_features;
         } else if constexpr (std::is_same_v<T, ObjectsMsg>) {
           j["t"] = m.t;
+          if (m.seq != 0) j["n"] = m.seq;
           j["full"] = m.full;
           json list = json::array();
           for (const auto& o : m.objects) {
@@ -319,6 +320,10 @@ Message from_json(const json& j) {
   if (kind == "objects") {
     ObjectsMsg m;
     m.t = integer(j, "t", 0, kMaxI64);
+    if (j.contains("n")) {
+      m.seq =
+          static_cast<std::uint64_t>(integer(j, "n", 0, static_cast<std::int64_t>(kMaxObjectsSeq)));
+    }
     m.full = flag(j, "full");
     for (const json& o : array(j, "o", 10000)) {
       if (!o.is_object()) throw Fail{DecodeError::kBadField, "field 'o' entry not a map"};

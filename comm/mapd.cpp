@@ -67,7 +67,10 @@ void Mapd::handle(const std::string& topic, std::span<const std::uint8_t> payloa
     }
     return;
   }
-  map_.apply(parts->agent, *objects);
+  if (!map_.apply(parts->agent, *objects)) {
+    ++counts_.stale;
+    return;
+  }
   ++counts_.applied;
   dirty_ = true;
 }
@@ -86,11 +89,13 @@ bool Mapd::spin_once(bool force) {
     last_ = map_.build();
     snap.objects = last_.objects;
     ++counts_.published;
+    snap.seq = next_seq_++;
+    snap.t = wall_clock_ns();
+    snap.full = true;
+    // Retained: a station that opens later gets the team map at once. Sent under the lock so
+    // that seq follows the outbox order.
+    client_->publish(topic_of(kTeamName, "objects"), encode(snap, options_.encoding), 1, true);
   }
-  snap.t = wall_clock_ns();
-  snap.full = true;
-  // Retained: a station that opens later gets the team map at once.
-  client_->publish(topic_of(kTeamName, "objects"), encode(snap, options_.encoding), 1, true);
   return true;
 }
 

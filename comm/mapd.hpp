@@ -31,6 +31,7 @@ struct MapdOptions {
 struct MapdCounts {
   std::uint64_t received = 0;       // messages on objects topics
   std::uint64_t applied = 0;        // objects messages folded into an agent's table
+  std::uint64_t stale = 0;          // objects messages older than one already applied
   std::uint64_t unknown_agent = 0;  // from an agent outside --agents
   std::uint64_t wrong_kind = 0;     // decoded, but not an objects message
   std::uint64_t published = 0;      // team snapshots sent
@@ -67,6 +68,7 @@ class Mapd {
   MapdCounts counts_;
   std::set<std::string> logged_unknown_;
   std::chrono::steady_clock::time_point last_publish_{};
+  std::uint64_t next_seq_ = first_objects_seq(wall_clock_ns());
 };
 
 }  // namespace kestrel::comm

@@ -66,12 +66,34 @@ struct ObjectInfo {
 // `full` marks a snapshot (a late subscriber or a merge resets its copy). Agents send them in
 // their own world frame; mapd publishes the merged team map, always as a full snapshot, in the
 // team frame under the reserved name kTeamName.
+//
+// `seq` orders them: it grows with every objects message of one sender, snapshots included, and
+// starts from the sender's start time in microseconds so that a restarted sender goes on above
+// its last run. A QoS 1 message may arrive twice and late (a client re-sends what the broker
+// did not acknowledge before a crash, after what it sent since), and a late delta applied after
+// a newer snapshot would bring back what that snapshot removed; receivers apply a message only
+// when objects_message_is_new says so. 0 (a sender that does not number) is always applied.
 struct ObjectsMsg {
   Timestamp t = 0;
   bool full = false;
   std::vector<ObjectInfo> objects;
   std::vector<std::uint32_t> removed;
+  std::uint64_t seq = 0;
 };
+
+// Largest seq on the wire: the browser page compares it as a JavaScript number.
+inline constexpr std::uint64_t kMaxObjectsSeq = (1ULL << 53) - 1;
+
+// Whether an objects message numbered `seq` is newer than the last one applied from its sender
+// (`last_applied`, 0 before any); see ObjectsMsg.
+constexpr bool objects_message_is_new(std::uint64_t last_applied, std::uint64_t seq) {
+  return seq == 0 || seq > last_applied;
+}
+
+// The first seq of a sender started at wall-clock time `start_ns`.
+constexpr std::uint64_t first_objects_seq(std::int64_t start_ns) {
+  return start_ns <= 0 ? 1 : static_cast<std::uint64_t>(start_ns / 1000) % kMaxObjectsSeq + 1;
+}
 
 // An occupancy-grid change against version base_seq (see comm/grid_delta.hpp). base_seq 0 with
 // every cell is a keyframe of the grid.

@@ -143,6 +143,11 @@ void StationLink::handle(const std::string& topic, std::span<const std::uint8_t>
       a.status = *s;
       a.have_status = true;
     } else if (auto* o = std::get_if<ObjectsMsg>(&*msg)) {
+      if (!objects_message_is_new(a.objects_seq, o->seq)) {
+        ++a.objects_stale;
+        return;
+      }
+      if (o->seq != 0) a.objects_seq = o->seq;
       if (o->full) a.objects.clear();
       for (const auto& obj : o->objects) a.objects[obj.id] = obj;
       for (auto id : o->removed) a.objects.erase(id);

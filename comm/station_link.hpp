@@ -31,6 +31,8 @@ struct AgentView {
   std::uint64_t poses_out_of_order = 0;  // seq not above the previous one
   std::uint64_t poses_missed = 0;        // gaps in seq (QoS 0 drops)
   std::map<std::uint32_t, ObjectInfo> objects;
+  std::uint64_t objects_seq = 0;    // of the last objects message applied
+  std::uint64_t objects_stale = 0;  // objects messages ignored as older (re-sent late)
   std::optional<PathMsg> path;
   ClockSync clock;
   std::int64_t last_heard_wall_ns = 0;

@@ -98,7 +98,10 @@ void TeamMap::set_start(const std::string& agent, const Pose4& T_team_agent) {
   starts_[agent] = T_team_agent;
 }
 
-void TeamMap::apply(const std::string& agent, const ObjectsMsg& m) {
+bool TeamMap::apply(const std::string& agent, const ObjectsMsg& m) {
+  std::uint64_t& seq = seqs_[agent];
+  if (!objects_message_is_new(seq, m.seq)) return false;
+  if (m.seq != 0) seq = m.seq;
   auto& table = tables_[agent];
   if (m.full) table.clear();
   for (const ObjectInfo& o : m.objects) {
@@ -107,6 +110,7 @@ void TeamMap::apply(const std::string& agent, const ObjectsMsg& m) {
     table[o.id] = std::move(local);
   }
   for (auto id : m.removed) table.erase(id);
+  return true;
 }
 
 std::size_t TeamMap::agent_objects(const std::string& agent) const {

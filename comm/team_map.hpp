@@ -61,8 +61,9 @@ class TeamMap {
 
   // Configured order: the first agent is the reference frame when it has objects.
   void set_start(const std::string& agent, const Pose4& T_team_agent);
-  // An agent's objects message (a full snapshot replaces its table).
-  void apply(const std::string& agent, const ObjectsMsg& m);
+  // An agent's objects message (a full snapshot replaces its table). False, and nothing
+  // changes, when it is older than the last one applied from that agent (see ObjectsMsg::seq).
+  bool apply(const std::string& agent, const ObjectsMsg& m);
   std::size_t agent_objects(const std::string& agent) const;
 
   // Aligns and merges from scratch (the tables are small); team ids stay stable across calls.
@@ -81,6 +82,7 @@ class TeamMap {
   std::vector<std::string> order_;
   std::map<std::string, Pose4> starts_;
   std::map<std::string, std::map<std::uint32_t, ObjectInfo>> tables_;
+  std::map<std::string, std::uint64_t> seqs_;  // last applied ObjectsMsg::seq per agent
   std::map<std::pair<std::string, std::uint32_t>, std::uint32_t> team_ids_;
   std::uint32_t next_id_ = 1;
 };

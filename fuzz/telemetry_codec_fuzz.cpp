@@ -36,8 +36,9 @@ extern "C" void KestrelFuzzSeeds(void (*add)(const std::uint8_t*, std::size_t)) 
   using namespace kestrel::comm;
   ObjectsMsg objects;
   objects.t = 5;
-  objects.objects.push_back({3, "chair", {1, 2, 0.5}, {0.5, 0.5, 1}, 0.25, 12});
+  objects.objects.push_back({3, "chair", {1, 2, 0.5}, {0.5, 0.5, 1}, 0.25, 12, {}});
   objects.removed = {9};
+  objects.seq = 42;
   GridDeltaMsg grid;
   grid.seq = 4;
   grid.base_seq = 3;

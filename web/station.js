@@ -125,7 +125,7 @@ const agents = new Map();   // id -> agent state
 const team = { objects: new Map(), updates: 0 };
 const pings = new Map();    // ping id -> {agent, t0}
 const pending = new Map();  // command id -> {agent, topic, json, tries, kind}
-const stats = { messages: 0, rejected: 0, goalsSent: 0, acks: [] };
+const stats = { messages: 0, rejected: 0, staleObjects: 0, goalsSent: 0, acks: [] };
 let selected = null;
 let client = null;
 let nextPing = 1000000000;  // far from the terminal station's ids
@@ -148,6 +148,19 @@ function agentState(id) {
   return a;
 }
 
+// A QoS 1 objects message can arrive twice and late (re-sent after a broker crash, behind what
+// followed it): applied after a newer snapshot it would bring back what that snapshot removed.
+// `n` numbers a sender's objects messages (comm/SCHEMA.md); one without `n` is always applied.
+function objectsMessageIsNew(holder, m) {
+  if (typeof m.n !== 'number' || m.n <= 0) return true;
+  if (m.n <= (holder.objectsSeq || 0)) {
+    ++stats.staleObjects;
+    return false;
+  }
+  holder.objectsSeq = m.n;
+  return true;
+}
+
 // The team layer is no agent: it has no pose, status or commands, only mapd's objects.
 function handleTeam(stream, payload) {
   if (stream !== 'objects' || payload.length === 0) return;
@@ -163,6 +176,7 @@ function handleTeam(stream, payload) {
     return;
   }
   ++stats.messages;
+  if (!objectsMessageIsNew(team, m)) return;
   if (m.full) team.objects.clear();
   for (const o of m.o) team.objects.set(o.id, o);
   for (const id of m.rm || []) team.objects.delete(id);
@@ -221,6 +235,7 @@ function handle(topic, payload) {
       a.status = m; a.role = m.role; a.state = m.st; a.online = m.on;
       break;
     case 'objects':
+      if (!objectsMessageIsNew(a, m)) break;
       if (m.full) a.objects.clear();
       for (const o of m.o) a.objects.set(o.id, o);
       for (const id of m.rm) a.objects.delete(id);

@@ -42,6 +42,7 @@ TEST(Schema, EveryKindRoundTrips) {
   objects.t = 5;
   objects.objects.push_back({3, "chair", {1, 2, 0.5}, {0.5, 0.5, 1}, 0.25, 12, {}});
   objects.removed = {9};
+  objects.seq = kMaxObjectsSeq;  // the largest the page compares exactly
   GridDeltaMsg grid;
   grid.seq = 4;
   grid.base_seq = 3;
@@ -110,6 +111,9 @@ TEST(Schema, RejectsAndCountsBadInput) {
   EXPECT_FALSE(
       d.decode(bytes_of(R"({"v":1,"k":"pose","t":-5,"p":[1,2,3],"q":[0,0,0,1],"s":0,"n":1})"),
                "t/negative-stamp"));
+  EXPECT_FALSE(d.decode(bytes_of(R"({"v":1,"k":"objects","t":1,"n":9007199254740992,"full":true,)"
+                                 R"("o":[],"rm":[]})"),
+                        "t/objects-seq-beyond-2^53"));
   EXPECT_FALSE(d.decode(bytes_of("[1,2,3]"), "t/array"));
   std::vector<std::uint8_t> huge(kMaxMessageBytes + 1, '{');
   EXPECT_FALSE(d.decode(huge, "t/huge"));
@@ -118,8 +122,8 @@ TEST(Schema, RejectsAndCountsBadInput) {
   EXPECT_EQ(c.unknown_version, 1u);
   EXPECT_EQ(c.unknown_kind, 1u);
   EXPECT_EQ(c.malformed, 5u);  // empty, garbage, truncated JSON, truncated CBOR, not a map
-  EXPECT_EQ(c.bad_field, 4u);
-  EXPECT_EQ(c.rejected(), 12u);
+  EXPECT_EQ(c.bad_field, 5u);
+  EXPECT_EQ(c.rejected(), 13u);
   EXPECT_EQ(c.ok, 0u);
   ASSERT_FALSE(log.empty());
   EXPECT_NE(log.front().find("t/empty"), std::string::npos);

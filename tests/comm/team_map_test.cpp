@@ -164,6 +164,41 @@ TEST(TeamMap, RefinesFramesFromSharedObjectsAndMergesWithoutDuplicates) {
   }
 }
 
+// A delta that the agent's client re-sent after a broker crash arrives behind the snapshot that
+// followed it: applied, it would bring back the chair the snapshot no longer holds.
+TEST(TeamMap, IgnoresObjectsMessagesOlderThanOneApplied) {
+  TeamMap map;
+  map.set_start("a", {});
+  ObjectsMsg added;
+  added.objects = {obj(1, "chair", {1, 2, 0.5})};
+  added.seq = 100;
+  ObjectsMsg snapshot;
+  snapshot.full = true;
+  snapshot.objects = {obj(2, "tv", {0, 4, 1})};
+  snapshot.seq = 102;
+  EXPECT_TRUE(map.apply("a", added));
+  EXPECT_TRUE(map.apply("a", snapshot));
+  EXPECT_FALSE(map.apply("a", added));     // late re-send
+  EXPECT_FALSE(map.apply("a", snapshot));  // duplicate
+  EXPECT_EQ(map.agent_objects("a"), 1u);
+  EXPECT_EQ(map.build().objects.at(0).label, "tv");
+  // Unnumbered messages (seq 0) are always applied; another agent's numbers are its own.
+  ObjectsMsg plain = added;
+  plain.seq = 0;
+  EXPECT_TRUE(map.apply("a", plain));
+  EXPECT_EQ(map.agent_objects("a"), 2u);
+  EXPECT_TRUE(map.apply("b", added));
+}
+
+TEST(ObjectsSeq, ARestartedSenderGoesOnAboveItsLastRun) {
+  const std::int64_t start = 1'796'000'000'000'000'000;  // 2026, in ns
+  const std::uint64_t first = first_objects_seq(start);
+  // 100,000 messages a second for a whole day still stay below the next run's first number.
+  EXPECT_LT(first + 100'000ULL * 86'400, first_objects_seq(start + 86'400'000'000'000LL));
+  EXPECT_LE(first, kMaxObjectsSeq);
+  EXPECT_GT(first_objects_seq(0), 0u);
+}
+
 // Two objects of one label that one agent keeps apart stay two, even when close; and a
 // start pose that is badly wrong is not "corrected" onto a wrong match beyond the bounds.
 TEST(TeamMap, KeepsAnAgentsOwnObjectsApartAndBoundsCorrections) {
