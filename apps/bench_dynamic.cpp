@@ -1,6 +1,7 @@
 // Dynamic area: the dynamic filter alone (pipeline::evaluate_dynamic_filter, the System's own
 // inputs frame by frame) on rendered cafe, market and uav-zigzag, scored against the mover
 // masks; one row per detector and filter mode of issue 5, and where the errors come from.
+// "yolo" is the pipeline's model (YOLO-Fastest xl at 320); "yolo v1.1" the seed's smaller one.
 // The unknown-class row is the perfect oracle with the scene's largest moving mover of a
 // dynamic class relabelled to a class outside the dynamic list (what a simulator rendering that
 // mover as an unknown class gives the oracle), so only geometry can catch it; the row reports
@@ -39,10 +40,13 @@ struct Row {
   bool park = true;  // vehicles seen still are parked (DynamicEvalOptions::park_vehicles)
 };
 
-enum : int { kYolo = 0, kOracle = 1, kOracleFn20 = 2, kOracleUnknown = 3 };
+// kYolo is the model the pipeline runs (detect::kPipelineYoloModel, xl at 320); kYoloV11 the
+// smaller v1.1 at 320, the seed's.
+enum : int { kYolo = 0, kOracle = 1, kOracleFn20 = 2, kOracleUnknown = 3, kYoloV11 = 4 };
 
 const Row kRows[] = {
     {"hybrid+yolo", kYolo, dynamic::FilterMode::kHybrid},
+    {"hybrid+yolo v1.1", kYoloV11, dynamic::FilterMode::kHybrid},
     {"hybrid+oracle", kOracle, dynamic::FilterMode::kHybrid},
     {"hybrid+oracle-fn20", kOracleFn20, dynamic::FilterMode::kHybrid},
     {"hybrid+oracle, unknown-class mover", kOracleUnknown, dynamic::FilterMode::kHybrid},
@@ -117,7 +121,12 @@ nlohmann::json bench_dynamic(const AreaOptions& o) {
       "the "
       "unknown mover | dynamic features | static features | filter ms p50 |\n"
       "|---|---|---|---|---|---|---|---|---|\n");
-  detect::YoloFastest yolo(detect::find_models_dir());
+  detect::YoloFastestOptions pipeline_yolo;
+  pipeline_yolo.model = detect::kPipelineYoloModel;
+  detect::YoloFastest yolo(detect::find_models_dir(), pipeline_yolo);
+  detect::YoloFastestOptions seed_yolo;
+  seed_yolo.model = detect::YoloModel::kV11;
+  detect::YoloFastest yolo_v11(detect::find_models_dir(), seed_yolo);
   nlohmann::json j;
   std::vector<std::string> reason_lines;
   for (const std::string& name : scenes) {
@@ -150,8 +159,8 @@ nlohmann::json bench_dynamic(const AreaOptions& o) {
       b.label = "unknown";
     }
     detect::OracleDetector oracle_unknown(boxes);
-    const pipeline::DynamicEvalScene scene =
-        pipeline::load_dynamic_eval_scene(dir, {&yolo, &oracle, &oracle_fn20, &oracle_unknown});
+    const pipeline::DynamicEvalScene scene = pipeline::load_dynamic_eval_scene(
+        dir, {&yolo, &oracle, &oracle_fn20, &oracle_unknown, &yolo_v11});
     if (o.work_dir.empty()) fs::remove_all(dir);
 
     for (const Row& row : kRows) {

@@ -26,6 +26,7 @@ struct AgentFlags {
   double rate = 1.0;
   double start_time = 0.0;
   std::string detector = "none";
+  std::string yolo_model = kestrel::detect::to_string(kestrel::detect::kPipelineYoloModel);
   bool fast = false;
   std::string video = "640x480";
   int video_kbps = 0;
@@ -53,6 +54,10 @@ void setup_agent(CLI::App& app) {
   cmd->add_option("--detector", flags->detector,
                   "yolo | oracle (the simulator's truth boxes: sim: and kestrel: sources) | none")
       ->check(CLI::IsMember({"yolo", "oracle", "none"}))
+      ->capture_default_str();
+  cmd->add_option("--yolo-model", flags->yolo_model,
+                  "with --detector yolo: v1.1, xl (the default) or body (persons)")
+      ->check(CLI::IsMember({"v1.1", "xl", "body"}))
       ->capture_default_str();
   cmd->add_option("--linger", flags->linger,
                   "seconds to stay online after the source ends (commands, pings, last frame)")
@@ -88,6 +93,7 @@ void setup_agent(CLI::App& app) {
     opt.start_s = flags->start_time;
     opt.linger_s = flags->linger;
     opt.detector = flags->detector;
+    opt.yolo_model = *kestrel::detect::parse_yolo_model(flags->yolo_model);
     opt.realtime = !flags->fast;
     opt.rate = flags->rate;
     if (flags->video != "off") {

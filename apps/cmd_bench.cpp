@@ -271,8 +271,14 @@ void run_bench(const BenchFlags& flags) {
   const std::size_t det_frames = flags.tiny ? 5 : flags.quick ? 40 : 150;
   std::map<std::string, std::vector<double>> detector_ms;
   if (!rendered.empty()) {
-    kestrel::detect::YoloFastest yolo(kestrel::detect::find_models_dir());
+    kestrel::detect::YoloFastestOptions v11;
+    v11.model = kestrel::detect::YoloModel::kV11;
+    kestrel::detect::YoloFastest yolo(kestrel::detect::find_models_dir(), v11);
     detector_ms["yolo-fastest"] = time_detector(yolo, rendered.front().dir, det_frames);
+    kestrel::detect::YoloFastestOptions xl;
+    xl.model = kestrel::detect::YoloModel::kV11Xl;
+    kestrel::detect::YoloFastest yolo_xl(kestrel::detect::find_models_dir(), xl);
+    detector_ms["yolo-fastest-xl"] = time_detector(yolo_xl, rendered.front().dir, det_frames);
     kestrel::detect::OracleDetector oracle(
         kestrel::io::read_boxes(rendered.front().dir + "/boxes.csv"));
     detector_ms["oracle"] = time_detector(oracle, rendered.front().dir, det_frames);

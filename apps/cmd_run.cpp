@@ -31,6 +31,7 @@ struct RunFlags {
   std::string out;
   std::string config;
   std::string detector = "yolo";
+  std::string yolo_model = kestrel::detect::to_string(kestrel::detect::kPipelineYoloModel);
   std::string dynamic = "hybrid";
   std::string mode = "auto";
   bool no_loop = false;
@@ -201,6 +202,11 @@ void setup_run(CLI::App& app) {
       ->check(CLI::ExistingFile);
   cmd->add_option("--detector", flags->detector, "yolo | oracle | none")
       ->check(CLI::IsMember({"yolo", "oracle", "none"}));
+  cmd->add_option("--yolo-model", flags->yolo_model,
+                  "with --detector yolo: v1.1 (COCO), xl (COCO, larger; the default) or body "
+                  "(persons)")
+      ->check(CLI::IsMember({"v1.1", "xl", "body"}))
+      ->capture_default_str();
   cmd->add_option("--dynamic", flags->dynamic, "hybrid | detection | geometry | off")
       ->check(CLI::IsMember({"hybrid", "detection", "geometry", "off"}));
   cmd->add_option("--mode", flags->mode,
@@ -259,6 +265,7 @@ void setup_run(CLI::App& app) {
     std::printf("kestrel run: %s\n", source->describe().c_str());
 
     opt.detector = flags->detector;
+    opt.yolo_model = *kestrel::detect::parse_yolo_model(flags->yolo_model);
     opt.dynamic = *kestrel::dynamic::filter_mode_from_string(flags->dynamic);
     opt.sequential = !flags->realtime;
     opt.paced = flags->realtime;

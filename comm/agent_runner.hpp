@@ -12,6 +12,7 @@
 #include "comm/agent_link.hpp"
 #include "comm/pose_stream.hpp"
 #include "comm/webrtc_sender.hpp"
+#include "detect/yolo_fastest.hpp"
 #include "io/measurement_source.hpp"
 
 namespace kestrel::comm {
@@ -31,6 +32,7 @@ struct AgentRunOptions {
   // yolo (real weights from models_dir, "" = found), oracle (the Kestrel sequence's
   // boxes.csv in dataset_dir: the simulator's truth, which knows its furniture) or none.
   std::string detector = "none";
+  detect::YoloModel yolo_model = detect::kPipelineYoloModel;
   std::string dataset_dir;
   std::string models_dir;
   double objects_snapshot_s = 5.0;  // retained full object snapshot at most this often

@@ -10,6 +10,7 @@
 #include "core/frame.hpp"
 #include "core/trajectory.hpp"
 #include "detect/oracle_detector.hpp"
+#include "detect/yolo_fastest.hpp"
 #include "dynamic/dynamic_filter.hpp"
 #include "dynamic/removal_metrics.hpp"
 #include "io/measurement_source.hpp"
@@ -21,7 +22,8 @@ namespace kestrel::pipeline {
 struct RunOptions {
   std::string dataset_dir;        // for the Kestrel sequence's truth files (boxes, masks)
   std::string detector = "yolo";  // yolo | oracle | none
-  detect::OracleOptions oracle;   // noise of the oracle detector (false negatives, jitter)
+  detect::YoloModel yolo_model = detect::kPipelineYoloModel;
+  detect::OracleOptions oracle;  // noise of the oracle detector (false negatives, jitter)
   dynamic::FilterMode dynamic = dynamic::FilterMode::kHybrid;
   bool sequential = true;
   // auto | rgbd | rgbd-imu | stereo | stereo-imu; auto takes the richest the dataset offers.
