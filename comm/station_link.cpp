@@ -152,6 +152,12 @@ void StationLink::handle(const std::string& topic, std::span<const std::uint8_t>
       for (const auto& obj : o->objects) a.objects[obj.id] = obj;
       for (auto id : o->removed) a.objects.erase(id);
     } else if (auto* path = std::get_if<PathMsg>(&*msg)) {
+      // Stamped by the agent's clock when planned: a path re-sent late (after a broker crash,
+      // behind what followed it) must not replace a newer goal's.
+      if (a.path && path->t < a.path->t) {
+        ++a.paths_stale;
+        return;
+      }
       a.path = *path;
     } else if (auto* ack = std::get_if<AckMsg>(&*msg)) {
       ++counts_.acks;

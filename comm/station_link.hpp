@@ -34,6 +34,7 @@ struct AgentView {
   std::uint64_t objects_seq = 0;    // of the last objects message applied
   std::uint64_t objects_stale = 0;  // objects messages ignored as older (re-sent late)
   std::optional<PathMsg> path;
+  std::uint64_t paths_stale = 0;  // path messages older than the one held (re-sent late)
   ClockSync clock;
   std::int64_t last_heard_wall_ns = 0;
 };

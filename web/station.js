@@ -125,7 +125,7 @@ const agents = new Map();   // id -> agent state
 const team = { objects: new Map(), updates: 0 };
 const pings = new Map();    // ping id -> {agent, t0}
 const pending = new Map();  // command id -> {agent, topic, json, tries, kind}
-const stats = { messages: 0, rejected: 0, staleObjects: 0, goalsSent: 0, acks: [] };
+const stats = { messages: 0, rejected: 0, staleObjects: 0, stalePaths: 0, goalsSent: 0, acks: [] };
 let selected = null;
 let client = null;
 let nextPing = 1000000000;  // far from the terminal station's ids
@@ -240,10 +240,19 @@ function handle(topic, payload) {
       for (const o of m.o) a.objects.set(o.id, o);
       for (const id of m.rm) a.objects.delete(id);
       break;
-    case 'path':
+    case 'path': {
+      // Stamped by the agent's clock when planned: one re-sent late (after a broker crash) must
+      // not replace the path of a newer goal.
+      const t = BigInt(m.t);
+      if (a.pathT !== undefined && t < a.pathT) {
+        ++stats.stalePaths;
+        break;
+      }
+      a.pathT = t;
       a.path = { goal: m.g, xy: m.xy, done: m.done, at: now };
       log(`${id}: path for ${m.g} (${m.xy.length / 2} points${m.done ? ', reached' : ''})`);
       break;
+    }
     case 'grid':
       // Deltas apply in order on top of their base version; inflation is async, so chain them.
       a.gridChain = a.gridChain.then(() => applyGrid(a, m)).catch((e) => {

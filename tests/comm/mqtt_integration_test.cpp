@@ -194,6 +194,27 @@ TEST(MqttIntegration, LateObjectsDeltaDoesNotUndoANewerSnapshot) {
   EXPECT_EQ(view->objects_seq, 11u);
 }
 
+// A path re-sent late (planned for an older goal) does not replace the newer goal's path.
+TEST(MqttIntegration, LatePathDoesNotReplaceANewerGoalsPath) {
+  LocalBroker broker(kUsers);
+  auto st = station(broker);
+  MqttClient raw_agent(opts(broker, "a1", "pw-a1"));
+  raw_agent.start();
+  ASSERT_TRUE(raw_agent.wait_connected(5s));
+  const PathMsg newer{20, "g2", {{0, 0}, {2, 1}}, false};
+  const PathMsg older{10, "g1", {{0, 0}, {-3, 4}}, false};
+  raw_agent.publish(topic_of("a1", "path"), encode(newer), 1);
+  raw_agent.publish(topic_of("a1", "path"), encode(older), 1);
+  raw_agent.publish(topic_of("a1", "status"),
+                    encode(StatusMsg{1, true, "ok", "ugv", 30, 0.5, 1, 0, 0, 0}),
+                    1);  // after both paths on the same connection
+  ASSERT_TRUE(st->wait_for([](const auto& m) { return heard_status(m, "a1", true); }, 5s));
+  const auto view = st->agent("a1");
+  ASSERT_TRUE(view && view->path);
+  EXPECT_EQ(view->path->goal_id, "g2");
+  EXPECT_EQ(view->paths_stale, 1u);
+}
+
 TEST(MqttIntegration, LastWillMarksKilledAgentOffline) {
   LocalBroker broker(kUsers);
   // The agent lives in a child process so that it can really be killed (no DISCONNECT sent).
