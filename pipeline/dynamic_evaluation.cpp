@@ -4,15 +4,19 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 
 #include "core/error.hpp"
 #include "core/so3.hpp"
 #include "detect/dynamic_classes.hpp"
+#include "imu/inertial_predictor.hpp"
 #include "io/cv_image.hpp"
 #include "io/dataset.hpp"
 #include "io/kestrel_sequence.hpp"
+#include "io/trajectory_io.hpp"
 #include "pipeline/imu_buffer.hpp"
+#include "pipeline/system.hpp"
 #include "tracking/feature_extractor.hpp"
 #include "tracking/tracker.hpp"
 
@@ -24,6 +28,22 @@ Image gray_of(const Image& color) {
   cv::Mat g;
   cv::cvtColor(io::as_mat(color), g, cv::COLOR_BGR2GRAY);
   return io::to_image(g);
+}
+
+// The ground-truth body pose at each frame stamp (within 1 ms); nothing for a frame it misses.
+std::vector<std::optional<SE3>> truth_at_frames(const std::string& path,
+                                                const std::vector<Timestamp>& stamps) {
+  std::vector<std::optional<SE3>> out(stamps.size());
+  if (!std::filesystem::exists(path)) return out;
+  const io::PoseSeries gt = io::read_pose_series(path);
+  for (std::size_t k = 0; k < stamps.size(); ++k) {
+    const double t = stamps[k] * 1e-9;
+    const auto it = std::lower_bound(gt.stamps.begin(), gt.stamps.end(), t - 1e-3);
+    if (it != gt.stamps.end() && std::fabs(*it - t) <= 1e-3) {
+      out[k] = SE3(gt.poses[static_cast<std::size_t>(it - gt.stamps.begin())]);
+    }
+  }
+  return out;
 }
 
 }  // namespace
@@ -52,6 +72,16 @@ DynamicEvalScene load_dynamic_eval_scene(const std::string& dir,
     }
   }
   scene.frames.reserve(frames.size());
+  std::vector<Timestamp> stamps;
+  for (const RgbdFrame& f : frames) stamps.push_back(f.t);
+  const std::vector<std::optional<SE3>> truth = truth_at_frames(dir + "/groundtruth.txt", stamps);
+  // The System's IMU predictor, its fixes the true poses (Kestrel worlds are z up, gravity
+  // known), so that the filter is handed the translation prior the System hands it.
+  imu::InertialPredictorOptions predictor_options;
+  predictor_options.noise = calib.imu;
+  imu::InertialPredictor predictor(predictor_options);
+  const SystemOptions system_options;
+  Timestamp imu_fed_until = 0;
   for (std::size_t k = 0; k < frames.size(); ++k) {
     const RgbdFrame& f = frames[k];
     DynamicEvalFrame e;
@@ -63,9 +93,24 @@ DynamicEvalScene load_dynamic_eval_scene(const std::string& dir,
     const tracking::FrameFeatures ff = extractor.extract(f);
     for (const auto& kp : ff.keypoints) e.points.push_back(kp.px);
     e.depth_m = ff.sensor_depth;
+    // The previous frame's stamp from the scene: frames[k - 1] was emptied, stamp too, below.
     if (k > 0 && calib.has_imu) {
-      e.R_cur_prev = gyro_rotation(imu, frames[k - 1].t, f.t, calib.T_body_camera);
+      e.R_cur_prev = gyro_rotation(imu, scene.frames[k - 1].t, f.t, calib.T_body_camera);
+      if (!imu.empty() && f.t > imu_fed_until) {
+        predictor.add_samples(imu.between(std::max(imu_fed_until, imu.earliest()), f.t));
+        imu_fed_until = f.t;
+      }
+      const auto p = predictor.predict(f.t);
+      if (e.R_cur_prev && p && truth[k - 1]) {
+        const SE3 T_w_c_prev = *truth[k - 1] * calib.T_body_camera;
+        const SE3 T_w_c_pred = p->T_w_b * calib.T_body_camera;
+        e.t_cur_prev = (T_w_c_pred.inverse() * T_w_c_prev).translation();
+        const InertialPriorSigmas sigmas = inertial_prior_sigmas(system_options, p->since_fix_s);
+        e.prior_translation_sigma_m = sigmas.translation_m;
+        e.prior_rotation_sigma_rad = sigmas.rotation_rad;
+      }
     }
+    if (calib.has_imu && truth[k]) predictor.add_fix(f.t, *truth[k]);
     for (detect::Detector* d : detectors) e.detections.push_back(d->detect(f.color, f.t));
     scene.frames.push_back(std::move(e));
     frames[k] = RgbdFrame{};  // the colour and depth images are no longer needed
@@ -101,6 +146,12 @@ DynamicEvalResult evaluate_dynamic_filter(const DynamicEvalScene& scene,
       const std::size_t prev = k - std::min<std::size_t>(k, static_cast<std::size_t>(gap));
       x.prev_gray = &scene.frames[prev].gray;
       x.R_cur_prev = f.R_cur_prev;
+      x.t_cur_prev.reset();
+      if (gap == 1 && options.motion_prior && f.t_cur_prev && f.R_cur_prev) {
+        x.t_cur_prev = f.t_cur_prev;
+        x.prior_translation_sigma_m = f.prior_translation_sigma_m;
+        x.prior_rotation_sigma_rad = f.prior_rotation_sigma_rad;
+      }
       for (std::size_t j = k - 1; j > prev && x.R_cur_prev; --j) {
         if (!scene.frames[j].R_cur_prev) {
           x.R_cur_prev.reset();

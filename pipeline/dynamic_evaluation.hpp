@@ -1,9 +1,10 @@
 #pragma once
 // The dynamic filter alone over a recorded Kestrel sequence, scored against its ground-truth
 // mover masks: the same inputs the System gives it frame by frame (the tracker's features with
-// the sensor's depth under them, the gyro rotation since the previous frame, a detector's
-// dynamic-class boxes), without tracking or mapping. Shared by `kestrel bench dynamic` and the
-// tests; each detector runs once per scene and every filter mode reuses its boxes.
+// the sensor's depth under them, the gyro rotation since the previous frame, the IMU's predicted
+// translation, a detector's dynamic-class boxes), without tracking or mapping. Shared by `kestrel
+// bench dynamic` and the tests; each detector runs once per scene and every filter mode reuses its
+// boxes.
 #include <functional>
 #include <memory>
 #include <optional>
@@ -28,8 +29,16 @@ struct DynamicEvalFrame {
   Image depth;  // 16-bit, metres = value / depth_scale
   double depth_scale = 5000.0;
   std::vector<Vec2> points;
-  std::vector<double> depth_m;                   // sensor depth under each feature (0: none)
-  std::optional<Mat3> R_cur_prev;                // gyro rotation from the previous frame
+  std::vector<double> depth_m;     // sensor depth under each feature (0: none)
+  std::optional<Mat3> R_cur_prev;  // gyro rotation from the previous frame
+  // The camera's translation since the previous frame as the IMU predicts it, with the sigmas
+  // the System gives the filter (dynamic::DynamicFilterInput::t_cur_prev): the System's own
+  // imu::InertialPredictor, fed the recorded IMU and, where the System has its tracked poses, the
+  // ground-truth poses of the frames before. Nothing without ground truth or IMU, or before the
+  // predictor has its velocity window.
+  std::optional<Vec3> t_cur_prev;
+  double prior_translation_sigma_m = 0.0;
+  double prior_rotation_sigma_rad = 0.0;
   std::vector<detect::DetectionSet> detections;  // one per detector given to the loader
 };
 
@@ -55,7 +64,10 @@ struct DynamicEvalOptions {
   std::vector<std::string> parkable_classes;  // empty: detect::default_parkable_classes()
   dynamic::ParkedBoxOptions parked;
   bool prev_depth = true;  // give the filter the previous frame's depth image
-  int gap = 1;             // judge frame k against frame k - gap (the first ones against 0)
+  // Give the filter the IMU's predicted translation (DynamicEvalFrame::t_cur_prev), as the System
+  // does (SystemOptions::dynamic_motion_prior); only against the previous frame (gap 1).
+  bool motion_prior = true;
+  int gap = 1;  // judge frame k against frame k - gap (the first ones against 0)
   // Multi-frame evidence: also judge frame k against frame k - long_gap and combine the two
   // (dynamic::combine_baselines); 0: off.
   int long_gap = 0;

@@ -95,6 +95,12 @@ const char* to_string(PoseSource s) {
   return "?";
 }
 
+InertialPriorSigmas inertial_prior_sigmas(const SystemOptions& options, double since_fix_s) {
+  const double h = since_fix_s;
+  return {options.inertial_prior_rotation_sigma * (1.0 + h / 0.1),
+          options.inertial_prior_translation_sigma + 0.05 * h + 0.5 * h * h};
+}
+
 struct System::Impl {
   Calibration calib;
   SystemOptions options;
@@ -308,14 +314,11 @@ struct System::Impl {
     const auto p = predictor.predict(t);
     if (!p) return std::nullopt;
     predicted_v_w = p->v_w;
-    // The gyro is good to a few hundredths of a degree per frame; what the prior must allow
-    // for is the previous fix's own error and, in translation, the velocity's, both growing
-    // with the time the IMU carries the pose alone.
-    const double h = p->since_fix_s;
+    const InertialPriorSigmas sigmas = inertial_prior_sigmas(options, p->since_fix_s);
     tracking::MotionPrior prior;
     prior.T_w_c = p->T_w_b * calib.T_body_camera;
-    prior.rotation_sigma = options.inertial_prior_rotation_sigma * (1.0 + h / 0.1);
-    prior.translation_sigma = options.inertial_prior_translation_sigma + 0.05 * h + 0.5 * h * h;
+    prior.rotation_sigma = sigmas.rotation_rad;
+    prior.translation_sigma = sigmas.translation_m;
     return prior;
   }
 

@@ -139,6 +139,16 @@ enum class PoseSource {
 };
 const char* to_string(PoseSource s);
 
+// The IMU prediction's uncertainty, as the tracker's prior and the dynamic filter take it
+// (tracking::MotionPrior sigmas): the gyro is good to a few hundredths of a degree per frame;
+// what the prior must allow for is the previous fix's own error and, in translation, the
+// velocity's, both growing with the time the IMU carried the pose alone (since_fix_s).
+struct InertialPriorSigmas {
+  double rotation_rad = 0.0;
+  double translation_m = 0.0;
+};
+InertialPriorSigmas inertial_prior_sigmas(const SystemOptions& options, double since_fix_s);
+
 // What observers get for every frame (DSO's Output3DWrapper seam: writers, telemetry, report).
 struct FrameReport {
   Timestamp t = 0;

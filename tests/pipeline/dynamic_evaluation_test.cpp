@@ -9,7 +9,9 @@
 
 #include "core/error.hpp"
 #include "detect/oracle_detector.hpp"
+#include "io/dataset.hpp"
 #include "io/kestrel_sequence.hpp"
+#include "io/trajectory_io.hpp"
 #include "sim/scenario.hpp"
 #include "sim/sequence_recorder.hpp"
 #include "sim/simulator.hpp"
@@ -29,6 +31,29 @@ TEST(DynamicEvaluation, ModesOnARenderedCafe) {
   ASSERT_EQ(scene.frames.size(), 12u);
   EXPECT_FALSE(scene.frames[1].depth.empty());
   EXPECT_TRUE(scene.frames[1].R_cur_prev.has_value());  // the gyro between the two frames
+  // Each frame's motion prior is the camera's motion since the frame before, as the System
+  // hands it over: the gyro's rotation and, once the IMU predictor has its velocity window,
+  // the predicted translation. Both checked against the true relative pose.
+  {
+    const io::PoseSeries gt = io::read_pose_series(dir + "/groundtruth.txt");
+    const SE3 T_b_c = io::open_dataset("kestrel:" + dir)->calibration().T_body_camera;
+    ASSERT_GE(gt.size(), scene.frames.size());
+    int with_translation = 0;
+    for (std::size_t k = 1; k < scene.frames.size(); ++k) {
+      const DynamicEvalFrame& f = scene.frames[k];
+      ASSERT_NEAR(gt.stamps[k] * 1e9, static_cast<double>(f.t), 1e3);
+      const SE3 T_cur_prev = (SE3(gt.poses[k]) * T_b_c).inverse() * (SE3(gt.poses[k - 1]) * T_b_c);
+      ASSERT_TRUE(f.R_cur_prev.has_value()) << k;
+      const double angle = SO3(*f.R_cur_prev * T_cur_prev.so3().matrix().transpose()).log().norm();
+      EXPECT_LT(angle, 2e-3) << "frame " << k;
+      if (!f.t_cur_prev) continue;
+      ++with_translation;
+      EXPECT_LT((*f.t_cur_prev - T_cur_prev.translation()).norm(), 5e-3) << "frame " << k;
+      EXPECT_GT(f.prior_translation_sigma_m, 0.0);
+      EXPECT_GT(f.prior_rotation_sigma_rad, 0.0);
+    }
+    EXPECT_GE(with_translation, 4);  // from 0.2 s of fixes on
+  }
 
   const auto run = [&](dynamic::FilterMode mode, int detector, int long_gap = 0) {
     DynamicEvalOptions opt;
