@@ -25,7 +25,8 @@ inline int time_scale() {
   const int s = env ? std::atoi(env) : 1;
   return s >= 1 ? s : 1;
 }
-// A fresh empty directory under the system temp dir, unique per test.
+// A fresh empty directory under the system temp dir, unique per test; removed when the process
+// exits unless a test failed or KESTREL_KEEP_TEST_DIRS is set.
 std::filesystem::path temp_dir(const std::string& name);
 
 }  // namespace kestrel::test
