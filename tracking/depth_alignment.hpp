@@ -1,0 +1,67 @@
+#pragma once
+// Frame-to-frame alignment of two depth images (point-to-plane ICP with projective
+// association), held by a motion prior. Where the camera sees too little texture to track
+// features (a bare wall filling the view), depth still fixes the distance to the wall and two
+// of its tilts; the prior (the gyro's rotation, the IMU's translation) keeps the directions
+// depth cannot see. Pure: two images in, a relative pose and how well it is constrained out.
+#include <vector>
+
+#include "core/camera.hpp"
+#include "core/image.hpp"
+#include "core/se3.hpp"
+
+namespace kestrel::tracking {
+
+struct DepthAlignmentOptions {
+  // Both images are averaged over cells of cell_px x cell_px pixels: a single reading is too
+  // noisy for a surface normal (2.7 cm at 3 m on a D455), a cell's mean point is not.
+  int cell_px = 8;
+  double min_cell_fill = 0.5;     // share of a cell's pixels with depth
+  int normal_cells = 2;           // a reference normal is fitted to (2 n + 1)^2 cells around it
+  double depth_sigma_z2 = 0.003;  // one reading's sigma = depth_sigma_floor + this * z^2
+  double depth_sigma_floor = 0.001;
+  double min_depth_m = 0.2;
+  double max_depth_m = 8.0;
+  double max_distance_m = 0.08;  // a pair further apart along the normal is no correspondence
+  double huber_sigmas = 2.0;
+  int iterations = 12;
+  int min_points = 300;  // fewer cell correspondences: no alignment
+  // Movers' boxes covering more than this share of the depth: none. Walkers filling the view
+  // are never all inside their boxes, and what is left of them pulled the pose (market, 18 s:
+  // APE 0.06 -> 0.58 m with no such limit).
+  double max_excluded_share = 0.25;
+  // Data information (1/m^2, 1/rad^2) below which a direction is the prior's alone: 1e6 is
+  // a millimetre or a milliradian.
+  double min_information = 1e6;
+  double max_rms_sigmas = 3.0;  // RMS of the correspondences' residuals, in depth sigmas
+};
+
+struct DepthAlignmentPrior {
+  SE3 T_ref_cur;                    // where the motion model puts the current camera
+  double rotation_sigma = 1e-3;     // radians, per axis
+  double translation_sigma = 0.01;  // metres, per axis
+};
+
+// Pixels of the current image to leave out (a mover's box: its depth moves on its own).
+struct PixelBox {
+  double x_min = 0, y_min = 0, x_max = 0, y_max = 0;
+};
+
+struct DepthAlignmentResult {
+  bool ok = false;
+  SE3 T_ref_cur;   // the prior's pose when !ok
+  int points = 0;  // cell correspondences in the last iteration
+  double rms_sigmas = 0.0;
+  // Directions depth constrained: the smallest eigenvalue of the data's 3x3 translation
+  // information, in 1/m^2 (a single plane leaves two directions near zero).
+  double weakest_translation_information = 0.0;
+};
+
+// depth images are 16-bit (value / scale = metres), of the same size as the camera.
+DepthAlignmentResult align_depth(const Image& ref_depth, double ref_scale, const Image& cur_depth,
+                                 double cur_scale, const PinholeCamera& camera,
+                                 const DepthAlignmentPrior& prior,
+                                 const DepthAlignmentOptions& options = {},
+                                 const std::vector<PixelBox>& exclude = {});
+
+}  // namespace kestrel::tracking
