@@ -39,6 +39,7 @@ struct RunFlags {
   bool half_resolution_flow = false;
   bool inertial_ba = false;
   bool no_gyro_prior = false;
+  bool no_depth_carry = false;
   bool no_park = false;
   bool realtime = false;
   int max_in_flight = 2;
@@ -167,7 +168,12 @@ void print_summary(const char* name, const RunSummary& s) {
   std::printf("%s: %zu frames, ", name, s.frames);
   if (s.dropped > 0) std::printf("%zu dropped while the tracker was busy, ", s.dropped);
   std::printf("%zu tracked, %zu lost", s.tracked, s.lost);
-  if (s.inertial_only > 0) std::printf(" (%zu of them carried by the IMU)", s.inertial_only);
+  if (s.depth_imu > 0) {
+    std::printf(" (%zu of them aligned by depth with the IMU, %zu carried by the IMU alone)",
+                s.depth_imu, s.inertial_only);
+  } else if (s.inertial_only > 0) {
+    std::printf(" (%zu of them carried by the IMU)", s.inertial_only);
+  }
   if (s.ape_rmse_m >= 0) std::printf(", APE RMSE %.4f m (%zu pairs)", s.ape_rmse_m, s.ape_pairs);
   std::printf("\n");
   if (s.has_truth_masks) {
@@ -219,6 +225,8 @@ void setup_run(CLI::App& app) {
                 "on by default");
   cmd->add_flag("--inertial-ba", flags->inertial_ba,
                 "visual-inertial local BA: keyframes joined by the IMU's pre-integration");
+  cmd->add_flag("--no-depth-carry", flags->no_depth_carry,
+                "frames features cannot track are carried by the IMU alone, not aligned by depth");
   cmd->add_flag("--no-gyro-prior", flags->no_gyro_prior,
                 "no gyro rotation prior in the per-frame pose optimization");
   cmd->add_flag("--no-park", flags->no_park,
@@ -278,6 +286,7 @@ void setup_run(CLI::App& app) {
     opt.half_resolution_flow = flags->half_resolution_flow;
     opt.inertial_ba = flags->inertial_ba;
     opt.gyro_rotation_prior = !flags->no_gyro_prior;
+    opt.depth_carry = !flags->no_depth_carry;
     opt.park_vehicles = !flags->no_park;
     const RunSummary summary = kestrel::pipeline::run_sequence(*source, opt);
     print_summary("run", summary);

@@ -34,6 +34,7 @@ struct RunOptions {
   bool half_resolution_flow = false;  // dynamic::use_half_resolution_flow
   bool inertial_ba = false;           // SystemOptions::inertial_ba
   bool gyro_rotation_prior = true;    // SystemOptions::gyro_rotation_prior
+  bool depth_carry = true;            // SystemOptions::depth_carry
   bool park_vehicles = true;          // SystemOptions::park_vehicles
   std::string out_dir;                // trajectory.txt, timing.json, summary.json
   std::string models_dir;             // "" = find ../shared/models
@@ -75,6 +76,7 @@ struct RunSummary {
   std::size_t tracked = 0;  // frames with a visual pose
   std::size_t lost = 0;
   std::size_t inertial_only = 0;  // lost frames whose pose the IMU carried (in the trajectory)
+  std::size_t depth_imu = 0;      // lost frames aligned by depth with the IMU's prior (trajectory)
   double ape_rmse_m = -1.0;       // -1 without ground truth
   std::size_t ape_pairs = 0;
   dynamic::RemovalCounts removal;

@@ -91,6 +91,8 @@ const char* to_string(PoseSource s) {
       return "bridged";
     case PoseSource::kImu:
       return "imu";
+    case PoseSource::kDepthImu:
+      return "depth-imu";
   }
   return "?";
 }
@@ -203,6 +205,8 @@ struct System::Impl {
   imu::InertialPredictor predictor;
   Timestamp imu_fed_until = 0;  // predictor has the IMU up to here
   std::size_t inertial_frames = 0;
+  std::size_t depth_frames = 0;              // lost to features, carried by depth and the IMU
+  Timestamp last_vision_t = 0;               // stamp of the last frame features tracked
   std::size_t bridged = 0;                   // lost tracks restarted at the IMU's pose
   std::size_t restarted = 0;                 // ... at the last pose, without a prediction
   std::size_t keyframes_culled = 0;          // tracking thread: redundant keyframes erased
@@ -364,6 +368,35 @@ struct System::Impl {
       link.T_body_camera = calib.T_body_camera;
     }
     tracker.set_gyro_link(link);
+  }
+
+  // The pose of a frame features lost, by aligning its depth to the previous frame's with the
+  // IMU's motion since then as the prior (SystemOptions::depth_carry); none when depth cannot.
+  std::optional<SE3> depth_carry(const RgbdFrame& frame, const Image& ref_depth, double ref_scale,
+                                 const SE3& predicted_T_w_c, Timestamp t_prev,
+                                 const std::vector<dynamic::BoxRegion>& boxes) {
+    if (!options.depth_carry || frame.depth.empty() || ref_depth.empty() || !prev_T_w_c ||
+        last_vision_t == 0 || t_prev <= 0 || frame.t <= t_prev ||
+        frame.t - last_vision_t > from_seconds(options.depth_carry_max_s)) {
+      return std::nullopt;
+    }
+    const auto t0 = Clock::now();
+    tracking::DepthAlignmentPrior prior;
+    prior.T_ref_cur = prev_T_w_c->inverse() * predicted_T_w_c;
+    const double dt = to_seconds(frame.t - t_prev);
+    prior.rotation_sigma = calib.imu.gyro_noise * std::sqrt(dt) + options.gyro_prior_sigma_floor +
+                           options.gyro_prior_relative_sigma * prior.T_ref_cur.so3().log().norm();
+    prior.translation_sigma = options.depth_carry_translation_sigma;
+    std::vector<tracking::PixelBox> movers;
+    for (const auto& b : boxes) {
+      if (!b.parked) movers.push_back({b.x_min, b.y_min, b.x_max, b.y_max});
+    }
+    const tracking::DepthAlignmentResult r =
+        tracking::align_depth(ref_depth, ref_scale, frame.depth, frame.depth_scale, calib.camera,
+                              prior, options.depth_alignment, movers);
+    stats.record("depth_carry", ms_since(t0));
+    if (!r.ok) return std::nullopt;
+    return *prev_T_w_c * r.T_ref_cur;
   }
 
   // Vision's disagreement with the IMU's prediction, in the prediction's own sigmas.
@@ -674,6 +707,8 @@ struct System::Impl {
     }
     prev_gray = gray;
     prev_pyramid = std::move(cur_pyramid);
+    const Image ref_depth = prev_depth;  // the previous frame's, for depth carry
+    const double ref_depth_scale = prev_depth_scale;
     prev_depth = frame.depth;  // shared pixels, not a copy
     prev_depth_scale = frame.depth_scale;
     const Timestamp frame_t_prev = prev_t;
@@ -777,7 +812,15 @@ struct System::Impl {
                       : tr.prior_conflict ? PoseSource::kVisionImu
                                           : PoseSource::kVision;
     }
+    std::optional<SE3> depth_T_w_c;
     if (tr.state == tracking::TrackingState::kLost && predicted) {
+      depth_T_w_c = depth_carry(frame, ref_depth, ref_depth_scale, *predicted, frame_t_prev, boxes);
+    }
+    if (depth_T_w_c) {
+      report.T_w_body = *depth_T_w_c * calib.T_body_camera.inverse();
+      report.source = PoseSource::kDepthImu;
+      predictor.add_fix(frame.t, report.T_w_body);
+    } else if (tr.state == tracking::TrackingState::kLost && predicted) {
       // Lost, but the IMU still knows where the body is (for max_gap_s).
       report.T_w_body = *predicted * calib.T_body_camera.inverse();
       report.inertial_only = true;
@@ -789,6 +832,9 @@ struct System::Impl {
     if (tr.state == tracking::TrackingState::kOk ||
         tr.state == tracking::TrackingState::kRelocalized) {
       prev_T_w_c = tr.T_w_c;
+      last_vision_t = frame.t;
+    } else if (depth_T_w_c) {
+      prev_T_w_c = depth_T_w_c;
     } else if (predicted) {
       prev_T_w_c = predicted;
     } else {
@@ -800,12 +846,13 @@ struct System::Impl {
       std::lock_guard<std::mutex> lock(result_mutex);
       if (tr.state == tracking::TrackingState::kLost) ++lost;
       if (report.inertial_only) ++inertial_frames;
+      if (depth_T_w_c) ++depth_frames;
       if (tr.bridged) ++bridged;
       if (tr.restarted) ++restarted;
       if (tr.prior_conflict) ++prior_conflicts;
       if (tr.relocalization_rejected) ++relocalizations_rejected;
       if (tr.global_search_skipped) ++relocalizations_deferred;
-      if (tr.state != tracking::TrackingState::kLost || report.inertial_only) {
+      if (tr.state != tracking::TrackingState::kLost || report.inertial_only || depth_T_w_c) {
         trajectory.push_back(to_seconds(frame.t), report.T_w_body);
       }
       removal += report.removal;
@@ -1099,6 +1146,7 @@ void System::finish() {
   impl_->stats.set_counter("imu.rejected", impl_->imu.rejected());
   impl_->stats.set_counter("frames.lost", frames_lost());
   impl_->stats.set_counter("frames.inertial_only", impl_->inertial_frames);
+  impl_->stats.set_counter("frames.depth_imu", impl_->depth_frames);
   impl_->stats.set_counter("tracking.bridged", impl_->bridged);
   impl_->stats.set_counter("tracking.restarted", impl_->restarted);
   impl_->stats.set_counter("tracking.imu_conflicts", impl_->prior_conflicts);

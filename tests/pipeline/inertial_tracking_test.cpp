@@ -56,7 +56,8 @@ class Recorder : public Observer {
   std::vector<FrameReport> reports;
 };
 
-BlackoutRun run_blackout(bool use_imu) {
+// keep_depth: the lights go out but the depth sensor (its own emitter) still sees.
+BlackoutRun run_blackout(bool use_imu, bool keep_depth = false) {
   auto source = io::open_dataset("kestrel:" + office_dir());
   BlackoutRun out;
   out.truth = *source->ground_truth();
@@ -78,7 +79,8 @@ BlackoutRun run_blackout(bool use_imu) {
   while (auto m = source->next()) {
     if (auto* f = std::get_if<RgbdFrame>(&*m); f && blacked_out(f->t)) {
       f->color = Image::allocate(f->color.width, f->color.height, f->color.channels, f->color.type);
-      f->depth = Image::allocate(f->depth.width, f->depth.height, 1, PixelType::kU16);
+      if (!keep_depth)
+        f->depth = Image::allocate(f->depth.width, f->depth.height, 1, PixelType::kU16);
     }
     system.feed(*m);
   }
@@ -126,6 +128,29 @@ TEST(InertialTracking, ImuCarriesThePoseThroughABlackoutAndTheTrackResumes) {
   EXPECT_EQ(last.source, PoseSource::kVision);
   std::cout << "blackout with IMU: " << black << " frames carried, worst error " << worst * 100
             << " cm, " << r.lost << " lost in all\n";
+}
+
+// With depth still there, each dark frame is aligned by its depth to the one before, the IMU's
+// motion as the prior (SystemOptions::depth_carry): lost to features, not to the System.
+TEST(InertialTracking, DepthAndImuCarryTheFramesFeaturesCannotTrack) {
+  const BlackoutRun r = run_blackout(true, true);
+  ASSERT_EQ(r.reports.size(), 76u);
+  std::size_t black = 0, aligned = 0;
+  for (const FrameReport& f : r.reports) {
+    if (!blacked_out(f.t)) continue;
+    ++black;
+    EXPECT_EQ(f.state, tracking::TrackingState::kLost) << to_seconds(f.t);
+    if (f.source == PoseSource::kDepthImu) ++aligned;
+  }
+  EXPECT_EQ(aligned, black);
+  EXPECT_EQ(r.counters.at("frames.depth_imu"), black);
+  EXPECT_EQ(r.counters.at("frames.inertial_only"), 0u);
+  double worst = 0.0;
+  for (std::size_t i = 0; i < r.trajectory.size(); ++i) {
+    if (r.trajectory.stamps[i] >= kBlackFrom) worst = std::max(worst, position_error(r, i));
+  }
+  EXPECT_LT(worst, 0.05) << worst;
+  EXPECT_EQ(r.reports.back().source, PoseSource::kVision);
 }
 
 TEST(InertialTracking, WithoutTheImuTheBlackoutIsLost) {
