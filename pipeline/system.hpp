@@ -131,15 +131,20 @@ struct SystemOptions {
   // rotation and the IMU's translation as the prior: depth fixes the distance to what it sees,
   // the IMU the rest. The pose is a fix for the IMU predictor, so its velocity and its gate
   // against relocalizations stay fresh; for at most depth_carry_max_s after vision's last fix.
-  // 60 s runs (kestrel run, APE; --no-depth-carry -> on): corridor-dark 1.59 -> 0.28 m (its 3 s
-  // facing the bare end wall in a 140-degree turn: 64 frames aligned, 2 left to the IMU; before,
-  // false relocalizations there moved it 0.3-0.9 m); market 0.060 -> 0.060 (movers fill the view
-  // when it loses features: left to the IMU, DepthAlignmentOptions::max_excluded_share); cafe
-  // 0.010 and ugv-loop 0.015 (never lost); uav-zigzag 1.53 -> 1.75, a draw that goes wrong at
-  // 4 s (cars outvote the ground) before either acts.
+  // 60 s runs (kestrel run, APE; --no-depth-carry -> on): corridor-dark 1.59 -> 0.28 m and,
+  // drawn with --seed 2, 0.36 -> 0.095 m (its turn facing the bare end wall: 64 frames aligned;
+  // before, false relocalizations there moved it 0.3-0.9 m); market 0.060 -> 0.060 (movers fill
+  // the view when it loses features: left to the IMU, DepthAlignmentOptions::max_excluded_share);
+  // cafe 0.010 and ugv-loop 0.015 (never lost); uav-zigzag 1.53 -> 1.52 and seed 2 0.27 -> 0.32
+  // (a scene whose draws span 0.3-1.7 m; the default draw goes wrong at 4 s, cars outvoting the
+  // ground, before either acts). Without the IMU check below, uav-zigzag with --half-res-flow
+  // went 0.90 -> 13.6 m; with it 4.9 m, a draw already 2.7 m off at 4 s.
   bool depth_carry = true;
   double depth_carry_max_s = 3.0;
   double depth_carry_translation_sigma = 0.01;  // metres: the IMU's motion over one frame
+  // ... and only when vision agreed with the IMU before the loss: the median chi-square of the
+  // IMU prediction against the last 10 tracked frames (6 dof; 16.8 is the 99% point).
+  double depth_carry_max_imu_chi2 = 16.8;
   tracking::DepthAlignmentOptions depth_alignment;
   // Live (not sequential) runs wait at most this long for the IMU to pass a frame's stamp.
   double imu_wait_ms = 20.0;
