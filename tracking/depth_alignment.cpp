@@ -123,7 +123,6 @@ DepthAlignmentResult align_depth(const Image& ref_depth, double ref_scale, const
       !(prior.translation_sigma > 0.0)) {
     return result;
   }
-  const CellGrid ref(ref_depth, ref_scale, camera, options, true);
   const CellGrid cur(cur_depth, cur_scale, camera, options, false);
   std::vector<const Cell*> points;
   int valid = 0;
@@ -143,6 +142,8 @@ DepthAlignmentResult align_depth(const Image& ref_depth, double ref_scale, const
           options.max_excluded_share * valid) {
     return result;
   }
+  // Only now the reference's normals, the costly part: most refusals are movers' boxes.
+  const CellGrid ref(ref_depth, ref_scale, camera, options, true);
 
   const double w_rot = 1.0 / (prior.rotation_sigma * prior.rotation_sigma);
   const double w_trans = 1.0 / (prior.translation_sigma * prior.translation_sigma);
