@@ -374,6 +374,13 @@ struct System::Impl {
     tracker.set_gyro_link(link);
   }
 
+  // The gyro's rotation over dt seconds as a prior: its white noise, a floor and a share of the
+  // angle turned (camera-IMU rotation error); SystemOptions::gyro_rotation_prior.
+  double gyro_prior_sigma(double dt, double angle) const {
+    return calib.imu.gyro_noise * std::sqrt(dt) + options.gyro_prior_sigma_floor +
+           options.gyro_prior_relative_sigma * angle;
+  }
+
   // The pose of a frame features lost, by aligning its depth to the previous frame's with the
   // IMU's motion since then as the prior (SystemOptions::depth_carry); none when depth cannot.
   std::optional<SE3> depth_carry(const RgbdFrame& frame, const Image& ref_depth, double ref_scale,
@@ -396,8 +403,7 @@ struct System::Impl {
     tracking::DepthAlignmentPrior prior;
     prior.T_ref_cur = prev_T_w_c->inverse() * predicted_T_w_c;
     const double dt = to_seconds(frame.t - t_prev);
-    prior.rotation_sigma = calib.imu.gyro_noise * std::sqrt(dt) + options.gyro_prior_sigma_floor +
-                           options.gyro_prior_relative_sigma * prior.T_ref_cur.so3().log().norm();
+    prior.rotation_sigma = gyro_prior_sigma(dt, prior.T_ref_cur.so3().angle());
     prior.translation_sigma = options.depth_carry_translation_sigma;
     std::vector<tracking::PixelBox> movers;
     for (const auto& b : boxes) {
@@ -752,9 +758,8 @@ struct System::Impl {
         const SO3 R_bc = calib.T_body_camera.so3();
         const SO3 R_prev_cur = R_bc.inverse() * *d * R_bc;  // camera frame
         const double dt = to_seconds(frame.t - frame_t_prev);
-        const double sigma = calib.imu.gyro_noise * std::sqrt(dt) + options.gyro_prior_sigma_floor +
-                             options.gyro_prior_relative_sigma * R_prev_cur.angle();
-        tracker.set_rotation_prior(prev_T_w_c->so3() * R_prev_cur, sigma);
+        tracker.set_rotation_prior(prev_T_w_c->so3() * R_prev_cur,
+                                   gyro_prior_sigma(dt, R_prev_cur.angle()));
       }
     }
     tracker.set_body_velocity(options.inertial_ba ? predicted_v_w : std::nullopt);

@@ -11,6 +11,11 @@
 namespace kestrel::tracking {
 namespace {
 
+// One depth reading's sigma at range z.
+double reading_sigma(const DepthAlignmentOptions& o, double z) {
+  return o.depth_sigma_floor + o.depth_sigma_z2 * z * z;
+}
+
 struct Cell {
   Vec3 p = Vec3::Zero();  // mean back-projected point
   Vec3 n = Vec3::Zero();  // unit normal towards the camera; zero when none
@@ -49,7 +54,7 @@ class CellGrid {
         if (count < need) continue;
         Cell& c = at(cx, cy);
         c.p = sum / count;
-        const double one = o.depth_sigma_floor + o.depth_sigma_z2 * c.p.z() * c.p.z();
+        const double one = reading_sigma(o, c.p.z());
         // A cell straddling an edge has no single surface.
         if (z_max - z_min > 6.0 * one + 0.02 * c.p.z()) continue;
         c.sigma = one / std::sqrt(static_cast<double>(count));
@@ -83,7 +88,7 @@ class CellGrid {
         scatter = scatter / m - mean * mean.transpose();
         const Eigen::SelfAdjointEigenSolver<Mat3> eig(scatter);
         // Off the plane by more than the noise (an edge, a crease, a corner): no single surface.
-        const double one = o.depth_sigma_floor + o.depth_sigma_z2 * c.p.z() * c.p.z();
+        const double one = reading_sigma(o, c.p.z());
         const double off_plane = std::sqrt(std::max(0.0, eig.eigenvalues()(0)));
         if (off_plane > 3.0 * one / std::sqrt(o.min_cell_fill * size_ * size_) + 0.002) continue;
         const Vec3 n = eig.eigenvectors().col(0);
