@@ -482,8 +482,9 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
           // RANSAC found another consensus than the predicted motion (or none): the points the
           // prediction explains are the world, if there are enough of them.
           cv::Mat rp = r_prior.clone(), tp = t_prior.clone();
-          if (refine_motion(obj, img, Kcv, opt.prior_inlier_px, rp, tp) >= 10) {
-            if (!motion_agrees(rp, tp, r_prior, t_prior, gate_r, gate_t)) {
+          const int explained = refine_motion(obj, img, Kcv, opt.prior_inlier_px, rp, tp);
+          if (explained >= 10 || opt.prior_without_support) {
+            if (explained < 10 || !motion_agrees(rp, tp, r_prior, t_prior, gate_r, gate_t)) {
               rp = r_prior;  // the refinement slid off to the other consensus
               tp = t_prior;
             }

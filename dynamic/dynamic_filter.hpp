@@ -143,6 +143,10 @@ struct DynamicFilterOptions {
   double prior_gate_sigmas = 4.0;
   double prior_inlier_px = 4.0;
   double prior_min_translation_m = 0.01;  // floor of the translation gate
+  // ... and when fewer than 10 points agree with the prediction, it is still the camera's
+  // motion, not RANSAC's consensus: that consensus is one mover filling the view (a car under
+  // the drone that the detector does not see).
+  bool prior_without_support = true;
 };
 
 // The image pyramid LK flow runs on (levels and their gradients), built once per image: a caller

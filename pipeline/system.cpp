@@ -206,8 +206,9 @@ struct System::Impl {
   imu::InertialPredictor predictor;
   Timestamp imu_fed_until = 0;  // predictor has the IMU up to here
   std::size_t inertial_frames = 0;
-  std::size_t depth_frames = 0;  // lost to features, carried by depth and the IMU
-  Timestamp last_vision_t = 0;   // stamp of the last frame features tracked
+  std::size_t depth_frames = 0;         // lost to features, carried by depth and the IMU
+  std::size_t depth_carry_refused = 0;  // alignments that moved the IMU's motion too far
+  Timestamp last_vision_t = 0;          // stamp of the last frame features tracked
   // Vision's disagreement with the IMU (prior_chi2) over the last frames features tracked.
   static constexpr std::size_t recent_imu_chi2_frames = 10;
   std::deque<double> recent_imu_chi2;
@@ -414,6 +415,16 @@ struct System::Impl {
                               prior, options.depth_alignment, movers);
     stats.record("depth_carry", ms_since(t0));
     if (!r.ok) return std::nullopt;
+    // How far depth moved the IMU's motion, in the prior's sigmas: far means a mover.
+    const Vec6 e = (r.T_ref_cur * prior.T_ref_cur.inverse()).log();
+    const double correction_chi2 =
+        e.head<3>().squaredNorm() / (prior.translation_sigma * prior.translation_sigma) +
+        e.tail<3>().squaredNorm() / (prior.rotation_sigma * prior.rotation_sigma);
+    if (options.depth_carry_max_correction_chi2 > 0.0 &&
+        correction_chi2 > options.depth_carry_max_correction_chi2) {
+      ++depth_carry_refused;
+      return std::nullopt;
+    }
     return *prev_T_w_c * r.T_ref_cur;
   }
 
@@ -1168,6 +1179,7 @@ void System::finish() {
   impl_->stats.set_counter("frames.lost", frames_lost());
   impl_->stats.set_counter("frames.inertial_only", impl_->inertial_frames);
   impl_->stats.set_counter("frames.depth_imu", impl_->depth_frames);
+  impl_->stats.set_counter("frames.depth_carry_refused", impl_->depth_carry_refused);
   impl_->stats.set_counter("tracking.bridged", impl_->bridged);
   impl_->stats.set_counter("tracking.restarted", impl_->restarted);
   impl_->stats.set_counter("tracking.imu_conflicts", impl_->prior_conflicts);

@@ -75,9 +75,18 @@ struct SystemOptions {
   // this chi-square (in the prediction's tight sigmas) is re-matched around the prediction,
   // and dropped (the IMU carries the frame) if it still disagrees. Walkers filling the view
   // pulled a 20-inlier pose 0.2 m and 2.4 degrees off in one frame (market at 17.7 s, chi2
-  // 2450). Honest frames reach a few hundred: at 400 uav-zigzag's turns lost 30 frames.
-  // market 60 s: APE 0.91 m without the gate, 0.18 m at 400, 0.15 m at 2000. 0: no gate.
-  double inertial_gate_chi2 = 2000.0;
+  // 2450). When this was set (2000), honest frames reached a few hundred and at 400
+  // uav-zigzag's turns lost 30 frames; with the gyro rotation prior and the IMU-checked flow
+  // since, their chi-square stays under 10 on uav-zigzag without movers, p99.9 under 60 on
+  // market, cafe and corridor-dark (frames.csv, 60 s). A car filling the drone's view
+  // (uav-zigzag at 3.5 s) came at 629, passed, and its motion then became the IMU's through
+  // the fixes (3.5 m off by 4 s). At 150, with the depth carry's and the dynamic filter's
+  // checks (depth_carry_max_correction_chi2, DynamicFilterOptions::prior_without_support) and
+  // FAST at 20 (FeatureExtractorOptions), 60 s APE over three draws (kestrel sim --seed 1/2/3):
+  // uav-zigzag 1.52 / 0.32 / 0.44 -> 0.38 / 0.097 / 0.117 m; market (1, 2) 0.060 / 0.073 ->
+  // 0.047 / 0.047; cafe (1, 3) 0.010 / 0.006 -> 0.014 / 0.005; corridor-dark (1, 2)
+  // 0.28 / 0.095 -> 0.23 / 0.066. 0: no gate.
+  double inertial_gate_chi2 = 150.0;
   // Keyframes carry the gyro's rotation since the keyframe before them and local BA holds
   // them to it (mapping::GyroLink): without, a map tilts wherever vision's errors lead it
   // (market, no movers: 6 degrees in 8 s). The link's sigma adds to the gyro's white noise and
@@ -145,6 +154,12 @@ struct SystemOptions {
   // ... and only when vision agreed with the IMU before the loss: the median chi-square of the
   // IMU prediction against the last 10 tracked frames (6 dof; 16.8 is the 99% point).
   double depth_carry_max_imu_chi2 = 16.8;
+  // ... and an alignment that moves the IMU's motion further than this chi-square (in the
+  // prior's sigmas, 6 dof) is refused: depth then aligned to a mover filling the view, not to
+  // the world (uav-zigzag at 3.5 s, a car under the drone that the detector misses: 300-340,
+  // and its fixes turned the IMU's velocity into the car's). corridor-dark's honest
+  // corrections stay under 0.4.
+  double depth_carry_max_correction_chi2 = 9.0;
   tracking::DepthAlignmentOptions depth_alignment;
   // Live (not sequential) runs wait at most this long for the IMU to pass a frame's stamp.
   double imu_wait_ms = 20.0;

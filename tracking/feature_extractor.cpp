@@ -15,6 +15,8 @@ namespace kestrel::tracking {
 
 struct FeatureExtractor::Impl {
   cv::Ptr<cv::ORB> orb;
+  cv::Ptr<cv::ORB> fallback;  // the lower FAST threshold, for images the first leaves short
+  int fallback_below = 0;     // fewer candidates than this at the first threshold: the fallback
 };
 
 FeatureExtractor::FeatureExtractor(const PinholeCamera& camera,
@@ -31,6 +33,12 @@ FeatureExtractor::FeatureExtractor(const PinholeCamera& camera,
   impl_->orb = cv::ORB::create(candidates, options.scale_factor, options.levels,
                                /*edgeThreshold=*/19, /*firstLevel=*/0, /*WTA_K=*/2,
                                cv::ORB::HARRIS_SCORE, /*patchSize=*/31, options.fast_threshold);
+  impl_->fallback_below = static_cast<int>(std::lround(candidates * options.fast_fallback_below));
+  if (options.fast_threshold_fallback > 0 &&
+      options.fast_threshold_fallback < options.fast_threshold) {
+    impl_->fallback = cv::ORB::create(candidates, options.scale_factor, options.levels, 19, 0, 2,
+                                      cv::ORB::HARRIS_SCORE, 31, options.fast_threshold_fallback);
+  }
 }
 
 FeatureExtractor::~FeatureExtractor() = default;
@@ -200,6 +208,10 @@ FrameFeatures FeatureExtractor::extract(const Image& image, const Image* ignore,
   std::vector<int> chosen;
   if (options_.describe_chosen_only) {
     impl_->orb->detect(grey, kps, mask);
+    if (impl_->fallback && static_cast<int>(kps.size()) < impl_->fallback_below) {
+      kps.clear();
+      impl_->fallback->detect(grey, kps, mask);
+    }
     chosen = bucket(kps, image.width, image.height, options_.cell_px, options_.target_features);
     std::vector<cv::KeyPoint> described;
     described.reserve(chosen.size());
@@ -225,6 +237,10 @@ FrameFeatures FeatureExtractor::extract(const Image& image, const Image* ignore,
     chosen = std::move(kept);
   } else {
     impl_->orb->detectAndCompute(grey, mask, kps, desc);
+    if (impl_->fallback && static_cast<int>(kps.size()) < impl_->fallback_below) {
+      kps.clear();
+      impl_->fallback->detectAndCompute(grey, mask, kps, desc);
+    }
     chosen = bucket(kps, image.width, image.height, options_.cell_px, options_.target_features);
   }
   std::vector<cv::KeyPoint> selected;

@@ -321,6 +321,49 @@ TEST(DynamicFilter, MotionPriorPicksTheWorldOverACrowdMovingWithTheCamera) {
   EXPECT_EQ(a.labels, b.labels);
 }
 
+// A mover filling the whole view (a car under a drone, unseen by the detector) moves with the
+// camera: nothing in the image agrees with the IMU's predicted motion, and RANSAC's consensus
+// is the mover. The prediction is still the camera's motion, so the mover's features go.
+TEST(DynamicFilter, MotionPriorHoldsWhenAMoverFillsTheWholeView) {
+  const cv::Mat crowd = photo("person.jpg");
+  const cv::Vec3d step(0.05, 0.0, 0.0);
+  std::vector<Plane> planes = {{crowd, 3.0, -4, 4, -3, 3}};
+  Scene s;
+  s.prev = render(planes, cv::Vec3d(0, 0, 0));
+  planes[0].x0 += step[0];
+  planes[0].x1 += step[0];
+  s.cur = render(planes, step, &s.ids);
+  ASSERT_EQ(cv::countNonZero(s.ids != 0), 0);  // the mover is all the camera sees
+  std::vector<cv::Point2f> corners;
+  cv::goodFeaturesToTrack(s.cur, corners, 800, 0.005, 7);
+  for (const auto& c : corners) s.points.emplace_back(c.x, c.y);
+  ASSERT_GT(s.points.size(), 100u);
+  const Image prev = to_image(s.prev), cur = to_image(s.cur);
+  DynamicFilterInput in = input_for(s, prev, cur);
+  in.depth_m.assign(s.points.size(), 3.0);
+  in.R_cur_prev = Mat3::Identity();
+  in.t_cur_prev = Vec3(-step[0], -step[1], -step[2]);
+  in.prior_translation_sigma_m = 0.005;
+  in.prior_rotation_sigma_rad = 0.002;
+  const auto removed = [](const DynamicFilterResult& r) {
+    return 100.0 *
+           static_cast<double>(
+               std::count(r.labels.begin(), r.labels.end(), FeatureLabel::kDynamic)) /
+           static_cast<double>(r.labels.size());
+  };
+  DynamicFilterOptions opt;
+  opt.mode = FilterMode::kGeometryOnly;
+  const DynamicFilterResult r = classify_features(in, opt);
+  EXPECT_TRUE(r.motion_from_prior);
+  EXPECT_GE(removed(r), 90.0);
+
+  // Without it, RANSAC's consensus is taken for the world and the mover stays.
+  opt.prior_without_support = false;
+  const DynamicFilterResult blind = classify_features(in, opt);
+  EXPECT_FALSE(blind.motion_from_prior);
+  EXPECT_LT(removed(blind), 10.0);
+}
+
 TEST(DynamicFilter, StillCameraUsesFlowResidual) {
   // A hovering camera: epipolar geometry is degenerate, the homography test takes over.
   const Scene s = make_scene({0, 0, 0}, {0.03, 0.02, 0});

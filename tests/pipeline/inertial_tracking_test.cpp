@@ -8,6 +8,8 @@
 #include <filesystem>
 #include <iostream>
 #include <map>
+#include <optional>
+#include <span>
 #include <variant>
 
 #include "core/error.hpp"
@@ -57,7 +59,10 @@ class Recorder : public Observer {
 };
 
 // keep_depth: the lights go out but the depth sensor (its own emitter) still sees.
-BlackoutRun run_blackout(bool use_imu, bool keep_depth = false) {
+// approach_m: ... and what it sees comes this much nearer each black frame (a mover filling
+// the view). max_correction_chi2: SystemOptions::depth_carry_max_correction_chi2, if set.
+BlackoutRun run_blackout(bool use_imu, bool keep_depth = false, double approach_m = 0.0,
+                         std::optional<double> max_correction_chi2 = std::nullopt) {
   auto source = io::open_dataset("kestrel:" + office_dir());
   BlackoutRun out;
   out.truth = *source->ground_truth();
@@ -66,6 +71,7 @@ BlackoutRun run_blackout(bool use_imu, bool keep_depth = false) {
   opt.dynamic.mode = dynamic::FilterMode::kOff;
   opt.use_imu = use_imu;
   opt.vocabulary.clear();  // odometry only: no loop correction afterwards
+  if (max_correction_chi2) opt.depth_carry_max_correction_chi2 = *max_correction_chi2;
   const Trajectory truth = out.truth;
   opt.initial_T_w_body = [truth](Timestamp t) -> std::optional<SE3> {
     for (std::size_t i = 0; i < truth.size(); ++i) {
@@ -76,11 +82,18 @@ BlackoutRun run_blackout(bool use_imu, bool keep_depth = false) {
   System system(source->calibration(), opt, nullptr);
   Recorder rec;
   system.add_observer(&rec);
+  int black_frames = 0;
   while (auto m = source->next()) {
     if (auto* f = std::get_if<RgbdFrame>(&*m); f && blacked_out(f->t)) {
       f->color = Image::allocate(f->color.width, f->color.height, f->color.channels, f->color.type);
       if (!keep_depth)
         f->depth = Image::allocate(f->depth.width, f->depth.height, 1, PixelType::kU16);
+      const double nearer = approach_m * black_frames++ * f->depth_scale;
+      for (int v = 0; keep_depth && nearer > 0 && v < f->depth.height; ++v) {
+        for (std::uint16_t& d : std::span(f->depth.row<std::uint16_t>(v), f->depth.width)) {
+          d = d > nearer ? static_cast<std::uint16_t>(d - nearer) : 0;
+        }
+      }
     }
     system.feed(*m);
   }
@@ -151,6 +164,30 @@ TEST(InertialTracking, DepthAndImuCarryTheFramesFeaturesCannotTrack) {
   }
   EXPECT_LT(worst, 0.05) << worst;
   EXPECT_EQ(r.reports.back().source, PoseSource::kVision);
+}
+
+// In the dark, the depth sensor sees a mover filling the view come 6 cm nearer each frame: an
+// alignment that far from the IMU's motion follows the mover, so it is refused and the IMU
+// carries those frames alone. Without the check the track goes with the mover.
+TEST(InertialTracking, DepthCarryRefusesAMoverFillingTheView) {
+  const BlackoutRun r = run_blackout(true, true, 0.06);
+  ASSERT_EQ(r.reports.size(), 76u);
+  EXPECT_GE(r.counters.at("frames.depth_carry_refused"), 10u);
+  EXPECT_GE(r.counters.at("frames.inertial_only"), 10u);
+  double worst = 0.0;
+  for (std::size_t i = 0; i < r.trajectory.size(); ++i) {
+    if (r.trajectory.stamps[i] >= kBlackFrom) worst = std::max(worst, position_error(r, i));
+  }
+  EXPECT_LT(worst, 0.05) << worst;
+
+  const BlackoutRun blind = run_blackout(true, true, 0.06, 0.0);
+  EXPECT_EQ(blind.counters.at("frames.depth_carry_refused"), 0u);
+  double blind_worst = 0.0;
+  for (std::size_t i = 0; i < blind.trajectory.size(); ++i) {
+    if (blind.trajectory.stamps[i] >= kBlackFrom)
+      blind_worst = std::max(blind_worst, position_error(blind, i));
+  }
+  EXPECT_GT(blind_worst, 0.15) << blind_worst;
 }
 
 TEST(InertialTracking, WithoutTheImuTheBlackoutIsLost) {
