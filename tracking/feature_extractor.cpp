@@ -17,6 +17,10 @@ struct FeatureExtractor::Impl {
   cv::Ptr<cv::ORB> orb;
   cv::Ptr<cv::ORB> fallback;  // the lower FAST threshold, for images the first leaves short
   int fallback_below = 0;     // fewer candidates than this at the first threshold: the fallback
+
+  bool short_of_candidates(const std::vector<cv::KeyPoint>& kps) const {
+    return fallback && static_cast<int>(kps.size()) < fallback_below;
+  }
 };
 
 FeatureExtractor::FeatureExtractor(const PinholeCamera& camera,
@@ -30,14 +34,16 @@ FeatureExtractor::FeatureExtractor(const PinholeCamera& camera,
   }
   const int candidates =
       static_cast<int>(std::lround(options.target_features * options.oversample));
-  impl_->orb = cv::ORB::create(candidates, options.scale_factor, options.levels,
-                               /*edgeThreshold=*/19, /*firstLevel=*/0, /*WTA_K=*/2,
-                               cv::ORB::HARRIS_SCORE, /*patchSize=*/31, options.fast_threshold);
+  const auto orb_at = [&](int fast_threshold) {
+    return cv::ORB::create(candidates, options.scale_factor, options.levels,
+                           /*edgeThreshold=*/19, /*firstLevel=*/0, /*WTA_K=*/2,
+                           cv::ORB::HARRIS_SCORE, /*patchSize=*/31, fast_threshold);
+  };
+  impl_->orb = orb_at(options.fast_threshold);
   impl_->fallback_below = static_cast<int>(std::lround(candidates * options.fast_fallback_below));
   if (options.fast_threshold_fallback > 0 &&
       options.fast_threshold_fallback < options.fast_threshold) {
-    impl_->fallback = cv::ORB::create(candidates, options.scale_factor, options.levels, 19, 0, 2,
-                                      cv::ORB::HARRIS_SCORE, 31, options.fast_threshold_fallback);
+    impl_->fallback = orb_at(options.fast_threshold_fallback);
   }
 }
 
@@ -208,7 +214,7 @@ FrameFeatures FeatureExtractor::extract(const Image& image, const Image* ignore,
   std::vector<int> chosen;
   if (options_.describe_chosen_only) {
     impl_->orb->detect(grey, kps, mask);
-    if (impl_->fallback && static_cast<int>(kps.size()) < impl_->fallback_below) {
+    if (impl_->short_of_candidates(kps)) {
       kps.clear();
       impl_->fallback->detect(grey, kps, mask);
     }
@@ -237,7 +243,7 @@ FrameFeatures FeatureExtractor::extract(const Image& image, const Image* ignore,
     chosen = std::move(kept);
   } else {
     impl_->orb->detectAndCompute(grey, mask, kps, desc);
-    if (impl_->fallback && static_cast<int>(kps.size()) < impl_->fallback_below) {
+    if (impl_->short_of_candidates(kps)) {
       kps.clear();
       impl_->fallback->detectAndCompute(grey, mask, kps, desc);
     }

@@ -37,6 +37,22 @@ RgbdFrame tum_frame() {
   return f;
 }
 
+// The frame with every colour value v replaced by level(v), rounded and clamped to 0..255.
+template <typename Level>
+RgbdFrame with_grey_levels(const RgbdFrame& frame, Level level) {
+  RgbdFrame out = frame;
+  out.color =
+      Image::allocate(frame.color.width, frame.color.height, frame.color.channels, PixelType::kU8);
+  for (int y = 0; y < frame.color.height; ++y) {
+    const std::uint8_t* in = frame.color.row<std::uint8_t>(y);
+    std::uint8_t* o = out.color.row<std::uint8_t>(y);
+    for (int x = 0; x < frame.color.width * frame.color.channels; ++x) {
+      o[x] = static_cast<std::uint8_t>(std::clamp(std::lround(level(double(in[x]))), 0L, 255L));
+    }
+  }
+  return out;
+}
+
 TEST(FeatureExtractor, TargetCountAndSpreadOnRealFrame) {
   const FeatureExtractor ex(tum_camera());
   const FrameFeatures f = ex.extract(tum_frame());
@@ -93,19 +109,9 @@ double keypoint_overlap(const FrameFeatures& a, const FrameFeatures& b) {
 // A well-exposed frame is left exactly as it is.
 TEST(FeatureExtractor, DimImageIsStretchedWellExposedOneUntouched) {
   const RgbdFrame bright = tum_frame();
-  RgbdFrame dim = bright;
   std::mt19937 rng(7);
   std::normal_distribution<double> noise(0.0, 2.0);  // sensor noise does not dim with the light
-  dim.color = Image::allocate(bright.color.width, bright.color.height, bright.color.channels,
-                              PixelType::kU8);
-  for (int y = 0; y < bright.color.height; ++y) {
-    const std::uint8_t* in = bright.color.row<std::uint8_t>(y);
-    std::uint8_t* out = dim.color.row<std::uint8_t>(y);
-    for (int x = 0; x < bright.color.width * bright.color.channels; ++x) {
-      out[x] =
-          static_cast<std::uint8_t>(std::clamp(std::lround(in[x] * 0.2 + noise(rng)), 0L, 255L));
-    }
-  }
+  const RgbdFrame dim = with_grey_levels(bright, [&](double v) { return v * 0.2 + noise(rng); });
   FeatureExtractorOptions off;
   off.dim_max_gain = 1.0;
   const FeatureExtractor plain(tum_camera(), off);
@@ -128,17 +134,7 @@ TEST(FeatureExtractor, DimImageIsStretchedWellExposedOneUntouched) {
 // cost of 8); an image that leaves it short, low in contrast, is detected again at 8 and gets
 // exactly the features the lower threshold gives.
 TEST(FeatureExtractor, LowContrastFrameFallsBackToTheLowerFastThreshold) {
-  const RgbdFrame bright = tum_frame();
-  RgbdFrame flat = bright;
-  flat.color = Image::allocate(bright.color.width, bright.color.height, bright.color.channels,
-                               PixelType::kU8);
-  for (int y = 0; y < bright.color.height; ++y) {
-    const std::uint8_t* in = bright.color.row<std::uint8_t>(y);
-    std::uint8_t* out = flat.color.row<std::uint8_t>(y);
-    for (int x = 0; x < bright.color.width * bright.color.channels; ++x) {
-      out[x] = static_cast<std::uint8_t>(std::lround(in[x] * 0.3 + 90.0));
-    }
-  }
+  const RgbdFrame flat = with_grey_levels(tum_frame(), [](double v) { return v * 0.3 + 90.0; });
   FeatureExtractorOptions two_pass, low_only, high_only;
   two_pass.dim_max_gain = low_only.dim_max_gain = high_only.dim_max_gain = 1.0;
   low_only.fast_threshold = 8;
