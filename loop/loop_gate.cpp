@@ -46,4 +46,23 @@ bool spans_restart(const std::set<PoseId>& restarts, PoseId a, PoseId b) {
   return r != restarts.end() && *r <= std::max(a, b);
 }
 
+RestartSpan restart_span(const std::set<PoseId>& restarts, const std::set<PoseId>& blind, PoseId a,
+                         PoseId b) {
+  if (spans_restart(blind, a, b)) return RestartSpan::kBlind;
+  return spans_restart(restarts, a, b) ? RestartSpan::kAttitudeHeld : RestartSpan::kNone;
+}
+
+bool accept_loop(const LoopGateResult& gate, RestartSpan span) {
+  switch (span) {
+    case RestartSpan::kNone:
+      return gate.plausible;
+    case RestartSpan::kAttitudeHeld:
+      return gate.plausible ||
+             (std::isfinite(gate.rotation_rad) && gate.rotation_rad <= gate.max_rotation_rad);
+    case RestartSpan::kBlind:
+      return true;
+  }
+  return false;
+}
+
 }  // namespace kestrel::loop

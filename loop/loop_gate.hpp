@@ -48,4 +48,22 @@ LoopGateResult check_loop_drift(const std::map<PoseId, SE3>& poses, PoseId match
 // loop: only the loop can say.
 bool spans_restart(const std::set<PoseId>& restarts, PoseId a, PoseId b);
 
+// What the odometry between two keyframes knows across restarts of the local map.
+enum class RestartSpan {
+  kNone,          // no restart between them: the odometry is whole
+  kAttitudeHeld,  // restarts, each at an attitude the IMU held: the position is unknown
+  kBlind,         // a restart with nothing held: neither the position nor the attitude is known
+};
+// `restarts`: every keyframe that restarted the local map; `blind`: those of them where
+// nothing held the attitude.
+RestartSpan restart_span(const std::set<PoseId>& restarts, const std::set<PoseId>& blind, PoseId a,
+                         PoseId b);
+
+// Whether a loop goes into the pose graph: it agrees with the odometry; or the odometry cannot
+// judge it, a restart in between. With the IMU the attitude survives a restart, so the
+// rotation still has to agree: in a dark corridor's turn, two keyframes a second apart across a
+// bridged loss matched 36 and 26 degrees off the gyro's turn, and the pose graph bent the rest
+// of the run by that much (corridor-dark: 4.95 m APE).
+bool accept_loop(const LoopGateResult& gate, RestartSpan span);
+
 }  // namespace kestrel::loop

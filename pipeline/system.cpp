@@ -12,7 +12,7 @@
 #include <mutex>
 #include <set>
 #include <thread>
-#include <unordered_set>
+#include <unordered_map>
 
 #include "detect/dynamic_classes.hpp"
 #include "imu/inertial_local_ba.hpp"
@@ -60,6 +60,10 @@ struct LoopJob {
   // The keyframe restarted the local map after a lost track (bridged at the IMU's pose, or
   // restarted at the last one): the odometry jumps here, by however far the body went unseen.
   bool after_restart = false;
+  // ... and the IMU held the attitude across it (a bridge at its prediction, a restart at the
+  // gyro's attitude): only the position is unknown there, so a loop across it still answers to
+  // the odometry's rotation.
+  bool attitude_held = false;
   // The tracker culled keyframe view.id: drop its place (its pose-graph node stays, so loop
   // corrections still move what was anchored to it).
   bool forget = false;
@@ -173,13 +177,15 @@ struct System::Impl {
   std::vector<loop::PoseGraphEdge> graph_edges;
   std::size_t loops = 0;
   std::size_t loops_rejected = 0;
-  std::set<loop::PoseId> restarts;  // loop thread: keyframes that restarted the local map
+  std::set<loop::PoseId> restarts;        // loop thread: keyframes that restarted the local map
+  std::set<loop::PoseId> blind_restarts;  // ... of them, those where nothing held the attitude
   std::atomic<bool> finished{false};
 
   // Tracking-thread state.
   bool world_initialized = false;
-  // Keyframes that restarted the local map, until their place goes to the loop thread.
-  std::unordered_set<mapping::KeyframeId> restart_keyframes;
+  // Keyframes that restarted the local map, until their place goes to the loop thread, and
+  // whether the IMU held the attitude across the restart.
+  std::unordered_map<mapping::KeyframeId, bool> restart_keyframes;
   Image prev_gray;
   dynamic::FlowPyramid prev_pyramid;  // prev_gray's, kept from the filter's last call
   Image prev_depth;  // for the filter's depth-change test (a mover walking at the camera)
@@ -598,12 +604,16 @@ struct System::Impl {
   }
 
   void push_loop_job(mapping::KeyframeId id) {
-    const bool after_restart = restart_keyframes.erase(id) > 0;
+    const auto restart = restart_keyframes.find(id);
+    const bool after_restart = restart != restart_keyframes.end();
+    const bool attitude_held = after_restart && restart->second;
+    if (after_restart) restart_keyframes.erase(restart);
     if (!loop_detector) return;
     const mapping::Keyframe* kf = tracker.map().keyframe(id);
     if (!kf) return;
     LoopJob job;
     job.after_restart = after_restart;
+    job.attitude_held = attitude_held;
     job.t = kf->t;
     job.T_w_c = kf->T_w_c;
     job.view.id = kf->id;
@@ -784,7 +794,9 @@ struct System::Impl {
             ? tracker.track(std::move(features), *prior, &keep)
             : tracker.track(std::move(features), predicted, &keep);
     stats.record("tracking", ms_since(t0));
-    if (tr.new_keyframe && tr.bridged) restart_keyframes.insert(tr.keyframe_id);
+    if (tr.new_keyframe && tr.bridged) {
+      restart_keyframes[tr.keyframe_id] = predicted.has_value() || attitude.has_value();
+    }
     if (tr.new_keyframe) {
       kf_gyro_from = tr.keyframe_id;
       kf_gyro_R = SO3();
@@ -1009,12 +1021,14 @@ struct System::Impl {
       previous = id;
       const auto t0 = Clock::now();
       if (job->after_restart) restarts.insert(id);
+      if (job->after_restart && !job->attitude_held) blind_restarts.insert(id);
       const auto match = loop_detector->process(job->view);
       stats.record("loop.detect", ms_since(t0));
       if (match) {
         const loop::LoopGateResult gate = loop::check_loop_drift(
             keyframe_poses, match->match, match->query, match->T_match_query, options.loop_gate);
-        if (!gate.plausible && !loop::spans_restart(restarts, match->match, match->query)) {
+        if (!loop::accept_loop(
+                gate, loop::restart_span(restarts, blind_restarts, match->match, match->query))) {
           ++loops_rejected;
           continue;
         }

@@ -86,5 +86,36 @@ TEST(LoopGate, ARestartBetweenTheKeyframesIsSpanned) {
   EXPECT_FALSE(spans_restart({}, 0, 100));
 }
 
+TEST(LoopGate, RestartSpanIsBlindWhenAnySpannedRestartHeldNothing) {
+  const std::set<PoseId> restarts = {5, 9};
+  const std::set<PoseId> blind = {9};
+  EXPECT_EQ(restart_span(restarts, blind, 1, 4), RestartSpan::kNone);
+  EXPECT_EQ(restart_span(restarts, blind, 2, 6), RestartSpan::kAttitudeHeld);
+  EXPECT_EQ(restart_span(restarts, blind, 2, 12), RestartSpan::kBlind);
+  EXPECT_EQ(restart_span(restarts, blind, 12, 7), RestartSpan::kBlind);
+}
+
+// A loop across a bridged loss: the position jumped there (5 m off is no evidence), the
+// attitude did not (36 degrees off is a false match), a blind restart cannot judge either.
+TEST(LoopGate, AcrossARestartTheIMUsAttitudeStillJudgesTheLoop) {
+  const auto poses = straight_path(20);
+  const SE3 odometry = poses.at(2).inverse() * poses.at(12);
+  const LoopGateResult moved =
+      check_loop_drift(poses, 2, 12, odometry * yaw(0.3 * kDeg, Vec3(5.0, 0.0, 0.0)));
+  const LoopGateResult turned =
+      check_loop_drift(poses, 2, 12, odometry * yaw(36.0 * kDeg, Vec3(0.5, 0.0, 0.0)));
+  ASSERT_FALSE(moved.plausible);
+  ASSERT_FALSE(turned.plausible);
+  EXPECT_FALSE(accept_loop(moved, RestartSpan::kNone));
+  EXPECT_TRUE(accept_loop(moved, RestartSpan::kAttitudeHeld));
+  EXPECT_FALSE(accept_loop(turned, RestartSpan::kAttitudeHeld));
+  EXPECT_TRUE(accept_loop(turned, RestartSpan::kBlind));
+  const LoopGateResult agrees = check_loop_drift(poses, 2, 12, odometry);
+  for (const RestartSpan s :
+       {RestartSpan::kNone, RestartSpan::kAttitudeHeld, RestartSpan::kBlind}) {
+    EXPECT_TRUE(accept_loop(agrees, s));
+  }
+}
+
 }  // namespace
 }  // namespace kestrel::loop
