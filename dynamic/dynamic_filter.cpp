@@ -9,6 +9,7 @@
 #include <stdexcept>
 
 #include "core/camera.hpp"
+#include "core/grey_levels.hpp"
 #include "core/reprojection.hpp"
 #include "core/se3.hpp"
 
@@ -139,6 +140,11 @@ bool motion_agrees(const cv::Mat& r_a, const cv::Mat& t_a, const cv::Mat& r_b, c
   return cv::norm(dr) <= gate_rad && cv::norm(t_a - t_b) <= gate_m;
 }
 
+// The pyramid's border is padded for the wider of the two windows, so one pyramid serves both.
+int pyramid_window(const DynamicFilterOptions& opt) {
+  return std::max(opt.lk_window, opt.lk_window_dim);
+}
+
 int pyramid_levels(const DynamicFilterOptions& opt) {
   return std::max(opt.lk_base_level, 0) + std::max({opt.lk_levels, opt.lk_backward_levels, 0});
 }
@@ -170,15 +176,25 @@ FlowPyramid build_flow_pyramid(const Image& gray, const DynamicFilterOptions& op
     throw std::invalid_argument("build_flow_pyramid: the image must be 8-bit, one channel");
   }
   auto lv = std::make_shared<FlowPyramid::Levels>();
-  const cv::Size win(opt.lk_window, opt.lk_window);
+  const cv::Size win(pyramid_window(opt), pyramid_window(opt));
   lv->requested_levels = pyramid_levels(opt);
   cv::buildOpticalFlowPyramid(as_mat(gray), lv->pyramid, win, lv->requested_levels, true,
                               cv::BORDER_REFLECT_101, cv::BORDER_CONSTANT, false);
-  lv->window = opt.lk_window;
+  lv->window = pyramid_window(opt);
   lv->source = gray.data;
   lv->width = gray.width;
   lv->height = gray.height;
   return FlowPyramid{std::move(lv)};
+}
+
+int flow_window(const Image& cur_gray, const DynamicFilterOptions& opt) {
+  if (opt.lk_window_dim <= 0 || cur_gray.empty() || cur_gray.channels != 1 ||
+      cur_gray.type != PixelType::kU8) {
+    return opt.lk_window;
+  }
+  const GreyRange r =
+      grey_range(cur_gray.data->data(), cur_gray.width, cur_gray.height, cur_gray.step(), 4);
+  return r.spread() <= opt.dim_spread ? opt.lk_window_dim : opt.lk_window;
 }
 
 const char* to_string(LabelReason r) {
@@ -261,6 +277,7 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
   if (n == 0 || opt.mode == FilterMode::kOff) return out;
 
   const bool use_boxes = opt.mode != FilterMode::kGeometryOnly;
+  const int window = in.cur_gray ? flow_window(*in.cur_gray, opt) : opt.lk_window;
   const bool use_geometry = opt.mode != FilterMode::kDetectionOnly;
 
   // Which boxes hold each feature (a feature may sit in two overlapping boxes).
@@ -319,7 +336,7 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
         }
       }
       if (!depth_image || !opt.outline_by_depth) continue;
-      const int r = std::max(1, opt.lk_window / 2);
+      const int r = std::max(1, window / 2);
       for (std::size_t i = 0; i < n; ++i) {
         if (foreground[i] || outline[i] ||
             std::find(boxes_of[i].begin(), boxes_of[i].end(), static_cast<int>(b)) ==
@@ -363,11 +380,11 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
     throw std::invalid_argument("classify_features: prev_gray and cur_gray are required");
   }
   const FlowPyramid cur_pyr = build_flow_pyramid(*in.cur_gray, opt);
-  const FlowPyramid prev_pyr =
-      in.prev_pyramid && !in.prev_pyramid->empty() &&
-              in.prev_pyramid->levels->built_from(*in.prev_gray, opt.lk_window, pyramid_levels(opt))
-          ? *in.prev_pyramid
-          : build_flow_pyramid(*in.prev_gray, opt);
+  const FlowPyramid prev_pyr = in.prev_pyramid && !in.prev_pyramid->empty() &&
+                                       in.prev_pyramid->levels->built_from(
+                                           *in.prev_gray, pyramid_window(opt), pyramid_levels(opt))
+                                   ? *in.prev_pyramid
+                                   : build_flow_pyramid(*in.prev_gray, opt);
   if (in.cur_pyramid_out) *in.cur_pyramid_out = cur_pyr;
   const int prev_cols = in.prev_gray->width, prev_rows = in.prev_gray->height;
   std::vector<cv::Point2f> pts_cur(n), pts_prev(n), pts_back;
@@ -390,7 +407,7 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
     flags = cv::OPTFLOW_USE_INITIAL_FLOW;
   }
   std::vector<unsigned char> st1, st2;
-  const cv::Size win(opt.lk_window, opt.lk_window);
+  const cv::Size win(window, window);
   const cv::TermCriteria term(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, opt.lk_iterations,
                               opt.lk_epsilon_px);
   // Flow on the pyramid from lk_base_level up, in that level's pixels (OpenCV's convention:
@@ -775,6 +792,7 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
 
 void use_half_resolution_flow(DynamicFilterOptions& opt) {
   opt.lk_window = 9;
+  opt.lk_window_dim = 0;
   opt.lk_base_level = 1;
   opt.lk_levels = opt.lk_backward_levels = 2;
   opt.lk_iterations = 10;

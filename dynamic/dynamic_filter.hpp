@@ -98,10 +98,24 @@ struct DynamicFilterOptions {
   // 0.24 -> 1.15 m. Cafe seed 3 goes wrong in its first 4 s (the estimate stalls while the
   // camera moves 0.35 m) with per-frame removal within 2% of the default's, so the cause lies
   // in how tracking takes the few walker features that pass, not in the flow's precision.
+  // Measured again on top of the IMU gate (150), the depth carry and the motion prior without
+  // support (60 s runs of 12 draws, APE in metres, 15 px -> 9 px, and 15 px kept on dim frames
+  // as below): cafe 0.0046 -> 0.0037, 0.0140 -> 0.0140, 0.0054 -> 0.0045; market 0.136 ->
+  // 0.079, 0.047 -> 0.067; uav-zigzag 0.199 -> 0.115, 0.097 -> 0.125, 0.117 -> 0.113;
+  // corridor-dark unchanged (0.050, 0.066, 0.074: every frame dim); ugv-loop 0.026 -> 0.023.
+  // Lost frames over the twelve 239 -> 174; the filter's median in those runs 11-15 -> 4.5-8 ms
+  // (dim frames keep their cost). So 9 px is the default now.
   // With the IMU rotation the flow starts where the rotation puts the point. The backward check
   // keeps the full pyramid: with fewer levels it starts at the feature and confirms wrong forward
   // tracks it should reject.
-  int lk_window = 15;
+  int lk_window = 9;
+  // ... but on a dim, low-contrast frame (its 1st..99th percentile grey levels at most
+  // dim_spread apart: the extractor's dim images, FeatureExtractorOptions::dim_min_gain) the
+  // sensor noise is large against the texture, and the 9 px window's flow flags static features
+  // (corridor-dark: static kept 95.1 -> 93.2%, 18 -> 31 frames lost): the 15 px window there.
+  // 0: lk_window always.
+  int lk_window_dim = 15;
+  int dim_spread = 141;
   int lk_base_level = 0;  // pyramid level the flow ends on (0: full resolution)
   int lk_levels = 3;      // above lk_base_level
   int lk_iterations = 20;
@@ -224,6 +238,9 @@ struct DynamicFilterResult {
 
 DynamicFilterResult classify_features(const DynamicFilterInput& in,
                                       const DynamicFilterOptions& opt);
+
+// The LK window classify_features uses on `cur_gray`: lk_window, or lk_window_dim on a dim frame.
+int flow_window(const Image& cur_gray, const DynamicFilterOptions& opt);
 
 // The flow on the half-resolution image (DynamicFilterOptions, lk_window): 9 px window on
 // level 1, 2 levels above it, 10 iterations to 0.1 px. A quarter of the seed flow's cost.

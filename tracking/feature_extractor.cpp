@@ -1,7 +1,6 @@
 #include "tracking/feature_extractor.hpp"
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <numeric>
 #include <opencv2/features2d.hpp>
@@ -9,6 +8,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "core/grey_levels.hpp"
 #include "io/cv_image.hpp"
 
 namespace kestrel::tracking {
@@ -145,18 +145,9 @@ bool depth_reading_near(const Image& depth, int u, int v, int radius, double min
 // the same relative contrast of it as of a well-lit one. Well-exposed images are left exactly
 // as they are (their corners and descriptors do not change).
 cv::Mat stretch_if_dim(const cv::Mat& grey, const FeatureExtractorOptions& o) {
-  std::array<int, 256> hist{};
-  int total = 0;
-  for (int y = 0; y < grey.rows; y += 2) {  // every 4th pixel is plenty for percentiles
-    const std::uint8_t* r = grey.ptr<std::uint8_t>(y);
-    for (int x = 0; x < grey.cols; x += 2, ++total) ++hist[r[x]];
-  }
-  const int tail = std::max(1, total / 100);
-  int lo = 0;
-  for (int acc = 0; lo < 255 && (acc += hist[static_cast<std::size_t>(lo)]) < tail;) ++lo;
-  int hi = 255;
-  for (int acc = 0; hi > 0 && (acc += hist[static_cast<std::size_t>(hi)]) < tail;) --hi;
-  const double gain = std::min(o.dim_max_gain, 255.0 / std::max(1, hi - lo));
+  const GreyRange range = grey_range(grey.ptr<std::uint8_t>(0), grey.cols, grey.rows, grey.step);
+  const int lo = range.lo;
+  const double gain = std::min(o.dim_max_gain, 255.0 / std::max(1, range.spread()));
   if (gain < o.dim_min_gain) return grey;
   cv::Mat out;
   grey.convertTo(out, CV_8U, gain, -gain * lo);

@@ -122,6 +122,34 @@ BoxRegion mover_box(const Scene& s) {
                    static_cast<float>(r.x + r.width), static_cast<float>(r.y + r.height)};
 }
 
+// A dim frame (sensor noise large against its texture) takes the wider window; one pyramid,
+// padded for both windows, serves either frame, so a cached previous pyramid stays valid.
+TEST(DynamicFilter, DimFrameTakesTheWiderFlowWindow) {
+  const Scene s = make_scene({0.02, 0, 0}, {0, -0.05, 0});
+  cv::Mat dim_prev, dim_cur;
+  s.prev.convertTo(dim_prev, CV_8U, 0.35, 12.0);
+  s.cur.convertTo(dim_cur, CV_8U, 0.35, 12.0);
+  const Image bright = to_image(s.cur), dim = to_image(dim_cur), dim_before = to_image(dim_prev);
+  const DynamicFilterOptions opt;
+  EXPECT_EQ(flow_window(bright, opt), opt.lk_window);
+  EXPECT_EQ(flow_window(dim, opt), opt.lk_window_dim);
+  EXPECT_GT(opt.lk_window_dim, opt.lk_window);
+  DynamicFilterOptions one_window;
+  one_window.lk_window_dim = 0;
+  EXPECT_EQ(flow_window(dim, one_window), opt.lk_window);
+
+  DynamicFilterInput in = input_for(s, dim_before, dim);
+  in.boxes = {mover_box(s)};
+  const DynamicFilterResult fresh = classify_features(in, opt);
+  const FlowPyramid cached = build_flow_pyramid(dim_before, opt);
+  in.prev_pyramid = &cached;
+  const DynamicFilterResult reused = classify_features(in, opt);
+  EXPECT_EQ(fresh.labels, reused.labels);
+  const Score d = score(s, fresh);
+  EXPECT_GE(d.removed, 90.0);
+  EXPECT_GE(d.kept, 90.0);
+}
+
 TEST(DynamicFilter, TranslatingCameraMoverAcrossEpipolarLines) {
   // Camera slides right; epipolar lines are horizontal; the mover goes up.
   const Scene s = make_scene({0.02, 0, 0}, {0, -0.05, 0});
