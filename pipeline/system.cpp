@@ -26,6 +26,7 @@
 #include "pipeline/bounded_queue.hpp"
 #include "pipeline/detection_buffer.hpp"
 #include "pipeline/imu_buffer.hpp"
+#include "pipeline/thread_priority.hpp"
 #include "semantic/object_database.hpp"
 #include "tracking/stereo_matcher.hpp"
 
@@ -465,6 +466,7 @@ struct System::Impl {
   }
 
   void ba_loop() {
+    lower_this_thread_priority(options.background_nice);
     std::unique_lock<std::mutex> lock(ba_mutex);
     for (;;) {
       ba_cv.wait(lock, [&] { return tri_request || ba_request || ba_stop; });
@@ -953,6 +955,7 @@ struct System::Impl {
   }
 
   void mapping_loop() {
+    lower_this_thread_priority(options.background_nice);
     while (auto job = mapping_jobs.pop()) {
       const RgbdFrame& f = job->frame;
       const std::vector<std::uint8_t> mask =
@@ -1005,6 +1008,7 @@ struct System::Impl {
   }
 
   void loop_loop() {
+    lower_this_thread_priority(options.background_nice);
     std::optional<loop::PoseId> previous;
     while (auto job = loop_jobs.pop()) {
       if (job->forget) {

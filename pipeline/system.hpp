@@ -161,6 +161,10 @@ struct SystemOptions {
   // corrections stay under 0.4.
   double depth_carry_max_correction_chi2 = 9.0;
   tracking::DepthAlignmentOptions depth_alignment;
+  // The mapping, bundle-adjustment and loop-closing threads run this many nice steps below
+  // tracking and detection (0: the same): on two cores the three of them compete with the two
+  // per-frame threads, and a frame's pose waited behind a local BA.
+  int background_nice = 10;
   // Live (not sequential) runs wait at most this long for the IMU to pass a frame's stamp.
   double imu_wait_ms = 20.0;
 };
