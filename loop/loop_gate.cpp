@@ -25,7 +25,7 @@ LoopGateResult check_loop_drift(const std::map<PoseId, SE3>& poses, PoseId match
   const auto m = poses.find(match);
   const auto q = poses.find(query);
   if (m == poses.end() || q == poses.end()) {
-    r.plausible = false;
+    r.plausible = r.rotation_plausible = false;
     return r;
   }
   const SE3 odometry = m->second.inverse() * q->second;
@@ -35,9 +35,11 @@ LoopGateResult check_loop_drift(const std::map<PoseId, SE3>& poses, PoseId match
   r.rotation_rad = d.so3().angle();
   r.max_translation_m = o.translation_floor_m + o.translation_per_m * r.path_m;
   r.max_rotation_rad = o.rotation_floor_rad + o.rotation_per_m_rad * r.path_m;
-  r.plausible = !o.enabled ||
-                (std::isfinite(r.translation_m) && std::isfinite(r.rotation_rad) &&
-                 r.translation_m <= r.max_translation_m && r.rotation_rad <= r.max_rotation_rad);
+  r.rotation_plausible =
+      !o.enabled || (std::isfinite(r.rotation_rad) && r.rotation_rad <= r.max_rotation_rad);
+  r.plausible =
+      r.rotation_plausible &&
+      (!o.enabled || (std::isfinite(r.translation_m) && r.translation_m <= r.max_translation_m));
   return r;
 }
 
@@ -57,8 +59,7 @@ bool accept_loop(const LoopGateResult& gate, RestartSpan span) {
     case RestartSpan::kNone:
       return gate.plausible;
     case RestartSpan::kAttitudeHeld:
-      return gate.plausible ||
-             (std::isfinite(gate.rotation_rad) && gate.rotation_rad <= gate.max_rotation_rad);
+      return gate.rotation_plausible;
     case RestartSpan::kBlind:
       return true;
   }

@@ -27,8 +27,9 @@ struct LoopGateOptions {
 
 struct LoopGateResult {
   bool plausible = true;
-  double path_m = 0.0;         // travelled between the two keyframes (odometry)
-  double translation_m = 0.0;  // discrepancy between the measured and the odometry's pose
+  bool rotation_plausible = true;  // the rotation alone agrees (implied by plausible)
+  double path_m = 0.0;             // travelled between the two keyframes (odometry)
+  double translation_m = 0.0;      // discrepancy between the measured and the odometry's pose
   double rotation_rad = 0.0;
   double max_translation_m = 0.0;
   double max_rotation_rad = 0.0;
