@@ -635,12 +635,21 @@ struct System::Impl {
     FrameReport report;
     report.t = frame.t;
 
+    // Features first: they need no boxes, and the detection thread works on this frame
+    // meanwhile. Waiting for the boxes first put detection and extraction end to end on the
+    // frame's latency (cafe --realtime: 7.2 ms waited, then 6.5 ms extracted).
+    auto t0 = Clock::now();
+    tracking::FrameFeatures features =
+        q.right.empty() ? tracker.extractor().extract(frame) : process_stereo(q);
+    stats.record("features", ms_since(t0));
+    report.features = static_cast<int>(features.size());
+
     // Boxes for this frame.
     std::vector<dynamic::BoxRegion> boxes;
     std::vector<detect::Detection> dynamic_dets, static_dets;
     std::vector<bool> parkable;  // per box: a vehicle, which may park
     if (detector) {
-      const auto t0 = Clock::now();
+      t0 = Clock::now();
       const auto set = options.sequential
                            ? detections.wait_and_match(frame.t, std::chrono::seconds(30))
                            : detections.wait_and_match(frame.t, std::chrono::milliseconds(30));
@@ -668,12 +677,6 @@ struct System::Impl {
     }
     report.detections = static_cast<int>(boxes.size());
     report.boxes = boxes;
-
-    auto t0 = Clock::now();
-    tracking::FrameFeatures features =
-        q.right.empty() ? tracker.extractor().extract(frame) : process_stereo(q);
-    stats.record("features", ms_since(t0));
-    report.features = static_cast<int>(features.size());
 
     if (inertial) {
       t0 = Clock::now();
@@ -735,13 +738,6 @@ struct System::Impl {
       r.labels.assign(pts.size(), dynamic::FeatureLabel::kStatic);
     }
     stats.record("dynamic_filter", ms_since(t0));
-    if (truth) {
-      // Scoring against the ground-truth masks (reading them from disk) is no part of the filter.
-      t0 = Clock::now();
-      report.removal = dynamic::count_removal(pts, r.labels, truth(frame.t),
-                                              r.reasons.empty() ? nullptr : &r.reasons);
-      stats.record("truth_masks", ms_since(t0));
-    }
     {
       std::lock_guard<std::mutex> lock(imu_mutex);
       imu.drop_before(frame.t - kSecond);
@@ -888,6 +884,14 @@ struct System::Impl {
     }
     report.latency_ms = ms_since(q.arrival);
     stats.record("frame_latency", report.latency_ms);
+    if (truth) {
+      // Scoring against the ground-truth masks (reading them from disk) is evaluation, no part
+      // of the filter or of the pose: it comes after the pose's latency is taken.
+      t0 = Clock::now();
+      report.removal = dynamic::count_removal(pts, r.labels, truth(frame.t),
+                                              r.reasons.empty() ? nullptr : &r.reasons);
+      stats.record("truth_masks", ms_since(t0));
+    }
     {
       std::lock_guard<std::mutex> lock(result_mutex);
       if (tr.state == tracking::TrackingState::kLost) ++lost;
