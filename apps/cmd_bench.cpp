@@ -371,6 +371,34 @@ void run_bench(const BenchFlags& flags) {
                   c.removed_percent(), c.kept_percent(), c.dynamic_total, c.static_total);
     }
 
+    // Objects from the run's own poses and detector, against the world (issue 6's figures
+    // with SLAM in the loop; the objects area has them on truth poses and boxes).
+    std::printf(
+        "\n## Objects from the runs (SLAM poses, the mode's detector; against the world)\n\n");
+    std::printf(
+        "| scene | mode | recall | precision | centre err median (m) | size err median | class "
+        "correct |\n|---|---|---|---|---|---|---|\n");
+    for (const RunResult& r : runs) {
+      if (!r.summary.objects || r.mode.detector == "none") continue;
+      const kestrel::eval::ObjectScores& o = *r.summary.objects;
+      std::printf("| %s | %s | %.2f (%d/%d) | %.2f (%d reported) | %.3f | %.3f | %.2f |\n",
+                  scene_name({r.scenario, r.movers, 0, {}, r.seed}).c_str(), r.mode.name.c_str(),
+                  o.recall, o.matched, o.truth, o.precision, o.reported, o.center_error_median,
+                  o.size_error_median, o.class_correct);
+      j["objects"].push_back({{"scenario", r.scenario},
+                              {"movers", r.movers},
+                              {"seed", r.seed},
+                              {"mode", r.mode.name},
+                              {"truth", o.truth},
+                              {"reported", o.reported},
+                              {"matched", o.matched},
+                              {"recall", o.recall},
+                              {"precision", o.precision},
+                              {"center_error_median_m", o.center_error_median},
+                              {"size_error_median", o.size_error_median},
+                              {"class_correct", o.class_correct}});
+    }
+
     // Per-stage medians: the median over scenes of each run's per-frame median.
     const std::vector<std::string> stage_names = {"features", "dynamic_filter", "tracking",
                                                   "detection", "frame_latency"};

@@ -181,6 +181,14 @@ void print_summary(const char* name, const RunSummary& s) {
                 s.removal.removed_percent(), s.removal.dynamic_total, s.removal.kept_percent(),
                 s.removal.static_total);
   }
+  if (s.objects) {
+    const kestrel::eval::ObjectScores& o = *s.objects;
+    std::printf(
+        "  objects against the world: recall %.2f (%d of %d), precision %.2f (%d reported), "
+        "class correct %.2f, centre error median %.3f m, size error median %.0f%%\n",
+        o.recall, o.matched, o.truth, o.precision, o.reported, o.class_correct,
+        o.center_error_median, 100.0 * o.size_error_median);
+  }
   std::printf("  tracking %.1f ms/frame median (%.0f FPS), detector %.1f ms/frame\n",
               s.tracking_ms_median, s.tracking_ms_median > 0 ? 1000.0 / s.tracking_ms_median : 0.0,
               s.detector_ms_median);
@@ -397,7 +405,8 @@ void setup_demo(CLI::App& app) {
     kestrel::report::write_report(report, report_path);
     std::printf(
         "\n| rejection | APE RMSE (m) | dynamic removed | static kept | tracking FPS | "
-        "detector FPS | lost | objects found |\n|---|---|---|---|---|---|---|---|\n");
+        "detector FPS | lost | objects found | objects: recall / precision |\n"
+        "|---|---|---|---|---|---|---|---|---|\n");
     for (int i = 0; i < 2; ++i) {
       const RunSummary& s = results[i];
       // The objects the run wrote (objects.json): none without a detector.
@@ -405,11 +414,19 @@ void setup_demo(CLI::App& app) {
       const std::size_t objects =
           fs::exists(objects_path) ? kestrel::io::read_objects(objects_path).size() : 0;
       // One decimal everywhere, so the printed figures can be checked against summary.json.
-      std::printf("| %s | %.4f | %.1f%% | %.1f%% | %.1f | %s | %zu | %zu |\n", names[i],
+      // Against the rendered world (pipeline/sequence_object_truth.hpp).
+      std::string scored = "-";
+      if (s.objects) {
+        char buf[64];
+        std::snprintf(buf, sizeof buf, "%.2f (%d of %d) / %.2f", s.objects->recall,
+                      s.objects->matched, s.objects->truth, s.objects->precision);
+        scored = buf;
+      }
+      std::printf("| %s | %.4f | %.1f%% | %.1f%% | %.1f | %s | %zu | %zu | %s |\n", names[i],
                   s.ape_rmse_m, s.removal.removed_percent(), s.removal.kept_percent(),
                   s.tracking_ms_median > 0 ? 1000.0 / s.tracking_ms_median : 0.0,
                   s.detector_ms_median > 0 ? fmt_1(1000.0 / s.detector_ms_median).c_str() : "-",
-                  s.lost, objects);
+                  s.lost, objects, scored.c_str());
     }
     std::printf(
         "\noutputs in %s/ (hybrid/, off/: trajectory.txt, timing.json, summary.json, objects.json, "

@@ -23,6 +23,7 @@
 #include "pipeline/live_feed.hpp"
 #include "pipeline/process_memory.hpp"
 #include "pipeline/progress.hpp"
+#include "pipeline/sequence_object_truth.hpp"
 #include "pipeline/system.hpp"
 
 namespace kestrel::pipeline {
@@ -56,6 +57,15 @@ class RunObserver : public Observer {
     for (KeptFrame& k : strip_) {
       if (!k.frame.color.empty() && k.frame.t == r.t) k.report = r;
     }
+  }
+  // Called from the mapping thread, and last from finish(): the database after the run.
+  void on_objects(const ObjectsReport& r) override {
+    std::lock_guard lock(mutex_);
+    objects_ = r.objects;
+  }
+  std::vector<semantic::SemanticObject> objects() {
+    std::lock_guard lock(mutex_);
+    return objects_;
   }
   // Called from the feeding thread for a frame that is not fed (a live run's drop).
   void skip() { advance("dropping"); }
@@ -104,6 +114,7 @@ class RunObserver : public Observer {
   std::size_t done_ = 0;
   std::atomic<std::size_t> reported_{0};
   std::vector<Row> rows_;
+  std::vector<semantic::SemanticObject> objects_;
 };
 
 // Indices of n frames spread evenly over total, away from the very first frames.
@@ -295,6 +306,18 @@ RunSummary run_sequence(io::MeasurementSource& source, const RunOptions& options
     summary.ape_pairs = e.stats.count;
   }
 
+  // A simulated sequence knows its world: the run's objects are scored against it.
+  if (summary.ground_truth && !options.dataset_dir.empty()) {
+    if (const auto truth = read_object_truth(options.dataset_dir, *summary.ground_truth,
+                                             source.calibration().T_body_camera)) {
+      std::vector<eval::ObjectBox> reported;
+      for (const semantic::SemanticObject& o : observer.objects()) {
+        reported.push_back({o.label, o.box.center, o.box.size, o.box.yaw, o.observations});
+      }
+      summary.objects = score_run_objects(*truth, reported);
+    }
+  }
+
   if (!options.out_dir.empty()) {
     std::filesystem::create_directories(options.out_dir);
     io::write_tum(options.out_dir + "/trajectory.txt", traj);
@@ -321,6 +344,17 @@ std::string summary_json(const RunSummary& s) {
     j["static_kept_percent"] = s.removal.kept_percent();
     j["dynamic_features"] = s.removal.dynamic_total;
     j["static_features"] = s.removal.static_total;
+  }
+  if (s.objects) {
+    const eval::ObjectScores& o = *s.objects;
+    j["objects"] = {{"truth", o.truth},
+                    {"reported", o.reported},
+                    {"matched", o.matched},
+                    {"recall", o.recall},
+                    {"precision", o.precision},
+                    {"class_correct", o.class_correct},
+                    {"center_error_median_m", o.center_error_median},
+                    {"size_error_median", o.size_error_median}};
   }
   j["tracking_ms_median"] = s.tracking_ms_median;
   j["tracking_fps"] = s.tracking_ms_median > 0 ? 1000.0 / s.tracking_ms_median : 0.0;

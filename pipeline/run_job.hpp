@@ -13,6 +13,7 @@
 #include "detect/yolo_fastest.hpp"
 #include "dynamic/dynamic_filter.hpp"
 #include "dynamic/removal_metrics.hpp"
+#include "eval/object_metrics.hpp"
 #include "io/measurement_source.hpp"
 #include "pipeline/stage_stats.hpp"
 #include "pipeline/system.hpp"
@@ -81,6 +82,8 @@ struct RunSummary {
   std::size_t ape_pairs = 0;
   dynamic::RemovalCounts removal;
   bool has_truth_masks = false;
+  // The run's objects against the world's (a simulated sequence: pipeline/sequence_object_truth).
+  std::optional<eval::ObjectScores> objects;
   double tracking_ms_median = 0.0;  // per frame: features + dynamic filter + tracking
   double detector_ms_median = 0.0;
   double wall_seconds = 0.0;

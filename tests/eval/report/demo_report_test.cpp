@@ -99,7 +99,7 @@ TEST_F(DemoReport, PrintedTableMatchesSummaryJson) {
   std::stringstream lines(printed);
   for (std::string line; std::getline(lines, line);) {
     const auto c = cells(line);
-    if (c.size() != 8 || (c[0] != "hybrid" && c[0] != "off")) continue;
+    if (c.size() != 9 || (c[0] != "hybrid" && c[0] != "off")) continue;
     ++rows;
     const auto j = nlohmann::json::parse(slurp(*out_ / c[0] / "summary.json"));
     SCOPED_TRACE(line);
@@ -120,6 +120,14 @@ TEST_F(DemoReport, PrintedTableMatchesSummaryJson) {
     if (c[0] == "off") {
       EXPECT_EQ(objects.size(), 0u);
     }
+    // Objects against the rendered world: "recall (matched of truth) / precision".
+    ASSERT_TRUE(j.contains("objects")) << j.dump();
+    const auto& o = j["objects"];
+    char scored[64];
+    std::snprintf(scored, sizeof scored, "%.2f (%d of %d) / %.2f", o["recall"].get<double>(),
+                  o["matched"].get<int>(), o["truth"].get<int>(), o["precision"].get<double>());
+    EXPECT_EQ(c[8], scored);
+    EXPECT_EQ(o["reported"].get<std::size_t>(), objects.size());
     EXPECT_EQ(j["frames"].get<int>(), 151);
   }
   EXPECT_EQ(rows, 2) << printed;
