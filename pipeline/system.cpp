@@ -528,6 +528,12 @@ struct System::Impl {
     keyframes_culled += culled.size();
     if (!finished) return;
     stats.record("mapping.keyframe_finish", ms_since(t0));
+    const tracking::KeyframeCompletionTimes& ct = tracker.completion_times();
+    stats.record("mapping.keyframe_finish.triangulation", ct.triangulation_ms);
+    stats.record("mapping.keyframe_finish.connections", ct.connections_ms);
+    stats.record("mapping.keyframe_finish.point_culling", ct.point_culling_ms);
+    stats.record("mapping.keyframe_finish.keyframe_culling", ct.keyframe_culling_ms);
+    stats.record("mapping.keyframe_finish.ba_gather", ct.ba_gather_ms);
     if (request_local_ba() != r.keyframe) loop_job_ready(r.keyframe);
   }
 
@@ -551,7 +557,9 @@ struct System::Impl {
       done.swap(ba_results);
     }
     for (const auto& sol : done) {
+      const auto t0 = Clock::now();
       ba_outliers += static_cast<std::size_t>(tracker.apply_local_ba(sol));
+      stats.record("mapping.apply_local_ba", ms_since(t0));
       loop_job_ready(sol.current);
       // The keyframe's own frame reports the refined pose, as it does with inline BA.
       const mapping::Keyframe* kf = tracker.map().keyframe(sol.current);

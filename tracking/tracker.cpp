@@ -656,14 +656,21 @@ KeyframeId Tracker::insert_keyframe(FrameFeatures&& f, const Matched& m, const S
 }
 
 void Tracker::complete_keyframe(KeyframeId kid, KeyframeId previous) {
+  auto t0 = Clock::now();
   map_.cull_points(kid, options_.culling);
+  completion_times_.point_culling_ms = ms_since(t0);
+  t0 = Clock::now();
   for (KeyframeId id : cull_keyframes(kid, previous)) culled_.push_back(id);
+  completion_times_.keyframe_culling_ms = ms_since(t0);
+  completion_times_.ba_gather_ms = 0.0;
   if (options_.local_ba) {
     if (options_.inline_mapping) {
       mapping::local_bundle_adjustment(map_, kid, camera_, options_.ba);
     } else {
       // A newer keyframe's window supersedes a request not yet taken.
+      t0 = Clock::now();
       pending_ba_ = mapping::gather_local_ba(map_, kid, options_.ba);
+      completion_times_.ba_gather_ms = ms_since(t0);
     }
   }
 }
@@ -694,8 +701,12 @@ bool Tracker::finish_keyframe(KeyframeId kid, const std::vector<mapping::NewMapP
   if (kid < 0 || kid != pending_kf_) return false;
   pending_kf_ = -1;
   if (!map_.keyframe(kid)) return false;
+  auto t0 = Clock::now();
   mapping::apply_triangulation(map_, points);
+  completion_times_.triangulation_ms = ms_since(t0);
+  t0 = Clock::now();
   map_.update_connections(kid);
+  completion_times_.connections_ms = ms_since(t0);
   complete_keyframe(kid, pending_previous_kf_);
   // Frames tracked meanwhile may have chosen as their reference a keyframe culling just erased.
   if (!map_.keyframe(reference_kf_)) reference_kf_ = kid;
@@ -717,8 +728,8 @@ std::vector<KeyframeId> Tracker::cull_keyframes(KeyframeId newest, KeyframeId pr
     if (id != newest && id != previous && id != first) candidates.push_back(id);
   }
   for (KeyframeId id : candidates) {
-    if (map_.redundancy(id, options_.close_depth, options_.keyframe_cull_observers) >
-        options_.keyframe_cull_redundancy) {
+    if (map_.redundant(id, options_.close_depth, options_.keyframe_cull_observers,
+                       options_.keyframe_cull_redundancy)) {
       map_.erase_keyframe(id);
       culled.push_back(id);
     }

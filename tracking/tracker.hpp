@@ -130,6 +130,16 @@ struct StageTimes {
   double total_ms = 0.0;
 };
 
+// Where a keyframe's completion (finish_keyframe on the tracking thread) spends its time; on a
+// map that revisits its places for minutes each part grows with the points' observations.
+struct KeyframeCompletionTimes {
+  double triangulation_ms = 0.0;  // writing the new points back
+  double connections_ms = 0.0;    // covisibility
+  double point_culling_ms = 0.0;
+  double keyframe_culling_ms = 0.0;
+  double ba_gather_ms = 0.0;  // copying the local BA's window out of the map
+};
+
 struct TrackResult {
   SE3 T_w_c;  // never NaN: the last good pose when the frame is lost
   TrackingState state = TrackingState::kInitializing;
@@ -210,6 +220,8 @@ class Tracker {
   // meanwhile completed it without them). `culled` receives the keyframes erased.
   bool finish_keyframe(mapping::KeyframeId kf, const std::vector<mapping::NewMapPoint>& points,
                        std::vector<mapping::KeyframeId>& culled);
+  // The last completed keyframe's times (finish_keyframe, or a keyframe completed inline).
+  const KeyframeCompletionTimes& completion_times() const { return completion_times_; }
   // Continues in a saved map (multi-session): the next frame relocalizes against all of it,
   // and the map grows from there. The pose stays at the map's last keyframe until then.
   void set_map(mapping::Map map);
@@ -268,7 +280,8 @@ class Tracker {
   bool busy_ = false;    // set_busy(), for one track()
   mapping::KeyframeId reference_kf_ = -1;
   mapping::KeyframeId last_kf_ = -1;
-  std::vector<mapping::KeyframeId> culled_;     // since the last TrackResult reported them
+  std::vector<mapping::KeyframeId> culled_;  // since the last TrackResult reported them
+  KeyframeCompletionTimes completion_times_;
   std::vector<mapping::PointId> last_matches_;  // points matched in the last good frame
   int frames_since_keyframe_ = 0;
 };

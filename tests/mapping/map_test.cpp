@@ -119,6 +119,82 @@ TEST(Map, RedundancyIsTheShareOfClosePointsOthersSeeAtTheSameScale) {
   EXPECT_DOUBLE_EQ(s.map.redundancy(s.kf.back() + 100, 10.0, 3), 0.0);  // no such keyframe
 }
 
+// The early-stopping test gives redundancy() > threshold exactly, whatever the order in which
+// its points decide: thresholds on both sides of, and at, each keyframe's share.
+TEST(Map, RedundantAgreesWithTheRedundancyShare) {
+  CullingScene s;
+  auto check = [&](const char* what) {
+    for (KeyframeId id : {s.kf[0], s.kf[1], s.kf[2], s.kf[3], s.kf[4], s.kf.back() + 100}) {
+      for (int observers : {1, 3, 4, 5}) {
+        for (double depth : {1.0, 10.0}) {
+          for (double thr : {-0.1, 0.0, 0.5, 0.74, 0.75, 0.76, 0.9, 0.999, 1.0}) {
+            EXPECT_EQ(s.map.redundant(id, depth, observers, thr),
+                      s.map.redundancy(id, depth, observers) > thr)
+                << what << " keyframe " << id << " observers " << observers << " depth " << depth
+                << " threshold " << thr;
+          }
+        }
+      }
+    }
+  };
+  check("as built");
+  // Unseen points first: the share is known to fall short before the seen ones come.
+  for (int i = 0; i < 5; ++i) {
+    const std::size_t f = static_cast<std::size_t>(i);
+    std::swap(s.map.keyframe(s.kf[4])->point_of_feature[f],
+              s.map.keyframe(s.kf[4])->point_of_feature[39 - f]);
+  }
+  check("reordered");
+}
+
+// A point seen from more keyframes than kDescriptorViews takes its descriptor from the newest
+// views: 20 old views say A, 20 new ones B (all 40 would tie, and the oldest would win).
+TEST(Map, APointsDescriptorComesFromItsNewestViews) {
+  Map map;
+  auto one_feature = [](std::uint64_t word) {
+    FrameFeatures f = grid_features(1, 2.0);
+    f.descriptors[0].words = {word, 0, 0, 0};
+    return f;
+  };
+  const std::uint64_t a = 0, b = ~std::uint64_t{0};
+  const KeyframeId first = map.add_keyframe(0, SE3(), one_feature(a));
+  map.create_points_from_depth(first, 1, 10.0);
+  const PointId p = map.keyframe(first)->point_of_feature[0];
+  for (int k = 1; k < 40; ++k) {
+    const KeyframeId id = map.add_keyframe(k, SE3(), one_feature(k < 20 ? a : b));
+    map.add_observation(p, id, 0);
+  }
+  map.update_point(p);
+  ASSERT_EQ(map.point(p)->observations.size(), 40u);
+  EXPECT_EQ(map.point(p)->descriptor.words[0], b);
+}
+
+// Erasing keyframe A, whose neighbour B had no other link as strong as min_shared: B (and C,
+// linked to A alone) get their strongest remaining link back, and every weight is what a full
+// recount gives, though only the keyframes left without links are recounted.
+TEST(Map, ErasingAKeyframeRelinksTheNeighboursItLeavesAlone) {
+  Map map;
+  const KeyframeId a = map.add_keyframe(0, SE3(), grid_features(40, 2.0));
+  map.create_points_from_depth(a, 40, 10.0);
+  const KeyframeId b = map.add_keyframe(1, SE3(), grid_features(40, 2.0));
+  const KeyframeId c = map.add_keyframe(2, SE3(), grid_features(40, 2.0));
+  for (int i = 0; i < 30; ++i) {
+    const PointId p = map.keyframe(a)->point_of_feature[static_cast<std::size_t>(i)];
+    map.add_observation(p, b, i);
+    if (i < 5) map.add_observation(p, c, i);
+  }
+  for (KeyframeId id : {a, b, c}) map.update_connections(id);
+  ASSERT_EQ(map.keyframe(b)->connections, (std::map<KeyframeId, int>{{a, 30}}));
+  map.erase_keyframe(a);
+  EXPECT_EQ(map.keyframe(b)->connections, (std::map<KeyframeId, int>{{c, 5}}));
+  EXPECT_EQ(map.keyframe(c)->connections, (std::map<KeyframeId, int>{{b, 5}}));
+  for (KeyframeId id : {b, c}) {
+    const auto kept = map.keyframe(id)->connections;
+    map.update_connections(id);
+    EXPECT_EQ(map.keyframe(id)->connections, kept) << id;
+  }
+}
+
 TEST(Map, ErasingAKeyframeRemovesItsObservationsEdgesAndLonePoints) {
   CullingScene s;
   ASSERT_TRUE(s.map.keyframe(s.kf[4])->connections.count(s.kf[2]));
