@@ -181,6 +181,9 @@ void print_summary(const char* name, const RunSummary& s) {
                 s.removal.removed_percent(), s.removal.dynamic_total, s.removal.kept_percent(),
                 s.removal.static_total);
   }
+  if (!s.objects_error.empty()) {
+    std::printf("  objects not scored: %s\n", s.objects_error.c_str());
+  }
   if (s.objects) {
     const kestrel::eval::ObjectScores& o = *s.objects;
     std::printf(

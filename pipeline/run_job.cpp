@@ -307,14 +307,19 @@ RunSummary run_sequence(io::MeasurementSource& source, const RunOptions& options
   }
 
   // A simulated sequence knows its world: the run's objects are scored against it.
+  // A world that cannot be read costs the score, not the run's outputs.
   if (summary.ground_truth && !options.dataset_dir.empty()) {
-    if (const auto truth = read_object_truth(options.dataset_dir, *summary.ground_truth,
-                                             source.calibration().T_body_camera)) {
-      std::vector<eval::ObjectBox> reported;
-      for (const semantic::SemanticObject& o : observer.objects()) {
-        reported.push_back({o.label, o.box.center, o.box.size, o.box.yaw, o.observations});
+    try {
+      if (const auto truth = read_object_truth(options.dataset_dir, *summary.ground_truth,
+                                               source.calibration().T_body_camera)) {
+        std::vector<eval::ObjectBox> reported;
+        for (const semantic::SemanticObject& o : observer.objects()) {
+          reported.push_back({o.label, o.box.center, o.box.size, o.box.yaw, o.observations});
+        }
+        summary.objects = score_run_objects(*truth, reported);
       }
-      summary.objects = score_run_objects(*truth, reported);
+    } catch (const std::exception& e) {
+      summary.objects_error = e.what();
     }
   }
 
@@ -345,6 +350,7 @@ std::string summary_json(const RunSummary& s) {
     j["dynamic_features"] = s.removal.dynamic_total;
     j["static_features"] = s.removal.static_total;
   }
+  if (!s.objects_error.empty()) j["objects_error"] = s.objects_error;
   if (s.objects) {
     const eval::ObjectScores& o = *s.objects;
     j["objects"] = {{"truth", o.truth},

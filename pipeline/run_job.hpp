@@ -84,6 +84,7 @@ struct RunSummary {
   bool has_truth_masks = false;
   // The run's objects against the world's (a simulated sequence: pipeline/sequence_object_truth).
   std::optional<eval::ObjectScores> objects;
+  std::string objects_error;        // why they could not be scored (the world's files), if so
   double tracking_ms_median = 0.0;  // per frame: features + dynamic filter + tracking
   double detector_ms_median = 0.0;
   double wall_seconds = 0.0;

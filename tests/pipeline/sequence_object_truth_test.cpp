@@ -154,10 +154,7 @@ TEST(ObjectTruth, PrecisionIsAgainstTheWholeWorldRecallAgainstWhatWasSeen) {
 }
 
 TEST(ObjectTruth, AFolderWithoutItsWorldGivesNothingAndABrokenFileIsNamed) {
-  const std::string dir =
-      (std::filesystem::temp_directory_path() / "kestrel-test-object-truth").string();
-  std::filesystem::remove_all(dir);
-  std::filesystem::create_directories(dir);
+  const std::string dir = test::temp_dir("object-truth-files").string();
   Trajectory gt;
   gt.push_back(0.0, SE3());
   EXPECT_FALSE(read_object_truth(dir, gt, SE3()).has_value());
@@ -209,7 +206,19 @@ TEST(ObjectTruth, ARunOverASimulatedSequenceScoresItsObjectsAgainstTheWorld) {
   ASSERT_TRUE(none.objects.has_value());
   EXPECT_EQ(none.objects->reported, 0);
   EXPECT_EQ(none.objects->recall, 0.0);
-  std::filesystem::remove_all(test::temp_dir("object-truth-run"));
+
+  // A world file that cannot be read costs the score, not the run or its outputs.
+  std::ofstream(dir + "/scenario.yaml") << "name: [unclosed\n";
+  auto broken = io::open_dataset("kestrel:" + dir);
+  opt.out_dir = test::temp_dir("object-truth-out").string();
+  const RunSummary unscored = run_sequence(*broken, opt);
+  EXPECT_FALSE(unscored.objects.has_value());
+  EXPECT_NE(unscored.objects_error.find("scenario.yaml"), std::string::npos)
+      << unscored.objects_error;
+  EXPECT_TRUE(std::filesystem::exists(opt.out_dir + "/trajectory.txt"));
+  EXPECT_NE(summary_json(unscored).find("objects_error"), std::string::npos);
+  std::filesystem::remove_all(opt.out_dir);
+  std::filesystem::remove_all(std::filesystem::path(dir).parent_path());
 }
 
 }  // namespace
