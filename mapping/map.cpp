@@ -260,59 +260,29 @@ void Map::update_connections(KeyframeId kid, int min_shared) {
   }
 }
 
-bool Map::close_point(const Keyframe& kf, std::size_t i, double max_depth) const {
-  const auto& ff = kf.features;
-  return point(kf.point_of_feature[i]) && i < ff.depth.size() && ff.depth[i] > 0.0 &&
-         ff.depth[i] <= max_depth;
-}
-
-bool Map::seen_by_others(const Keyframe& kf, std::size_t i, int observers) const {
-  const MapPoint* p = point(kf.point_of_feature[i]);
-  const int level = kf.features.keypoints[i].level;
-  int seen = 0;
-  for (const auto& [other, feature] : p->observations) {
-    if (other == kf.id) continue;
-    const Keyframe* o = keyframe(other);
-    if (!o || feature < 0 || feature >= static_cast<int>(o->features.keypoints.size())) continue;
-    if (o->features.keypoints[static_cast<std::size_t>(feature)].level <= level + 1 &&
-        ++seen >= observers) {
-      return true;
-    }
-  }
-  return false;
-}
-
 double Map::redundancy(KeyframeId kid, double max_depth, int observers) const {
   const Keyframe* kf = keyframe(kid);
   if (!kf) return 0.0;
   int close = 0, redundant = 0;
+  const auto& ff = kf->features;
   for (std::size_t i = 0; i < kf->point_of_feature.size(); ++i) {
-    if (!close_point(*kf, i, max_depth)) continue;
+    const MapPoint* p = point(kf->point_of_feature[i]);
+    if (!p || i >= ff.depth.size() || ff.depth[i] <= 0.0 || ff.depth[i] > max_depth) continue;
     ++close;
-    redundant += seen_by_others(*kf, i, observers) ? 1 : 0;
+    const int level = ff.keypoints[i].level;
+    int seen = 0;
+    for (const auto& [other, feature] : p->observations) {
+      if (other == kid) continue;
+      const Keyframe* o = keyframe(other);
+      if (!o || feature < 0 || feature >= static_cast<int>(o->features.keypoints.size())) continue;
+      if (o->features.keypoints[static_cast<std::size_t>(feature)].level <= level + 1 &&
+          ++seen >= observers) {
+        break;
+      }
+    }
+    redundant += seen >= observers ? 1 : 0;
   }
   return close > 0 ? static_cast<double>(redundant) / close : 0.0;
-}
-
-bool Map::redundant(KeyframeId kid, double max_depth, int observers, double threshold) const {
-  const Keyframe* kf = keyframe(kid);
-  if (!kf) return 0.0 > threshold;  // as redundancy()'s 0
-  std::vector<std::size_t> close;
-  for (std::size_t i = 0; i < kf->point_of_feature.size(); ++i) {
-    if (close_point(*kf, i, max_depth)) close.push_back(i);
-  }
-  if (close.empty()) return 0.0 > threshold;
-  const double n = static_cast<double>(close.size());
-  int redundant = 0, not_redundant = 0;
-  for (const std::size_t i : close) {
-    (seen_by_others(*kf, i, observers) ? redundant : not_redundant) += 1;
-    // The same comparisons redundancy() > threshold makes, on the counts' bounds.
-    if (static_cast<double>(redundant) / n > threshold) return true;
-    if (!(static_cast<double>(static_cast<int>(close.size()) - not_redundant) / n > threshold)) {
-      return false;
-    }
-  }
-  return static_cast<double>(redundant) / n > threshold;
 }
 
 void Map::erase_keyframe(KeyframeId kid) {

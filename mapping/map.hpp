@@ -110,12 +110,6 @@ class Map {
   // fraction that at least `observers` other keyframes see at the same or a finer pyramid level
   // (one level of slack). 0 when kf has no such point.
   double redundancy(KeyframeId kf, double max_depth, int observers = 3) const;
-  // Whether redundancy(kf, max_depth, observers) > threshold, stopping as soon as the answer is
-  // known: culling asks it of every neighbour of each new keyframe, and where a place is
-  // revisited for minutes its points hold hundreds of observations (market, 300 s: 63 ms per
-  // keyframe at p90, 184 at p99, on the tracking thread). Most neighbours are not redundant, and
-  // a tenth of their points shows it.
-  bool redundant(KeyframeId kf, double max_depth, int observers, double threshold) const;
   // Removes a keyframe: its observations (a point it alone saw goes with it) and its
   // covisibility edges (a neighbour left with no link gets its strongest one back; the weights
   // between the others do not change). A gyro link to it is carried
@@ -143,11 +137,6 @@ class Map {
                std::unordered_map<PointId, MapPoint> points);
 
  private:
-  // Keyframe-culling terms of feature i of kf (redundancy()): a point observed closer than
-  // max_depth, and one that `observers` other keyframes see at a level no coarser than one above.
-  bool close_point(const Keyframe& kf, std::size_t i, double max_depth) const;
-  bool seen_by_others(const Keyframe& kf, std::size_t i, int observers) const;
-
   std::map<KeyframeId, Keyframe> keyframes_;
   std::unordered_map<PointId, MapPoint> points_;
   std::vector<PointId> recent_points_;  // candidates for culling

@@ -183,14 +183,9 @@ RunSummary run_sequence(io::MeasurementSource& source, const RunOptions& options
   // frame), so maps and objects can be scored against it; APE aligns anyway.
   if (auto gt = source.ground_truth(); gt && !gt->empty()) {
     sys_opt.initial_T_w_body = [gt = std::move(*gt)](Timestamp t) -> std::optional<SE3> {
-      const double ts = to_seconds(t);
-      const auto it = std::lower_bound(gt.stamps.begin(), gt.stamps.end(), ts);
-      std::size_t best = it == gt.stamps.end() ? gt.size() - 1 : it - gt.stamps.begin();
-      if (best > 0 && std::fabs(gt.stamps[best - 1] - ts) < std::fabs(gt.stamps[best] - ts)) {
-        --best;
-      }
-      if (std::fabs(gt.stamps[best] - ts) > 0.02) return std::nullopt;
-      return gt.poses[best];
+      const auto i = nearest_pose(gt, to_seconds(t), 0.02);
+      if (!i) return std::nullopt;
+      return gt.poses[*i];
     };
   }
   System system(source.calibration(), sys_opt, std::move(detector));

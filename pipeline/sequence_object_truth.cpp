@@ -1,7 +1,5 @@
 #include "pipeline/sequence_object_truth.hpp"
 
-#include <algorithm>
-#include <cmath>
 #include <filesystem>
 #include <map>
 
@@ -23,9 +21,7 @@ bool in_range(const ObjectTruthInput& in, const ObjectTruthOptions& o, Timestamp
 }
 
 // Walkers and birds never stand still long enough to be objects; anything else may.
-bool may_rest(const io::SequenceBox& b, const sim::MoverSpec& m) {
-  return b.label != "person" && m.type != "person" && m.type != "bird";
-}
+bool can_rest(const sim::MoverSpec& m) { return m.type != "person" && m.type != "bird"; }
 
 }  // namespace
 
@@ -53,7 +49,7 @@ ObjectTruth object_truth(const ObjectTruthInput& in, const ObjectTruthOptions& o
     const int m = b.instance - 1;
     if (m < 0 || m >= static_cast<int>(in.movers.size())) continue;
     const sim::MoverSpec& spec = in.movers[static_cast<std::size_t>(m)];
-    if (!may_rest(b, spec)) continue;
+    if (!can_rest(spec) || b.label == "person") continue;
     const Rest& r = rest[static_cast<std::size_t>(m)];
     const sim::MoverPose now = sim::mover_pose(spec, to_seconds(b.t));
     if ((now.position - r.pose.position).norm() > options.rest_tolerance_m) continue;
@@ -69,7 +65,7 @@ ObjectTruth object_truth(const ObjectTruthInput& in, const ObjectTruthOptions& o
   }
   for (std::size_t m = 0; m < in.movers.size(); ++m) {
     const sim::MoverSpec& spec = in.movers[m];
-    if (spec.type == "person" || spec.type == "bird") continue;
+    if (!can_rest(spec)) continue;
     const int id = static_cast<int>(m) + 1;
     const std::string label = labels.count(id) ? labels[id] : spec.label;
     const eval::ObjectBox b{label, rest[m].center, spec.size, rest[m].pose.yaw, 0};
@@ -109,13 +105,9 @@ std::optional<ObjectTruth> read_object_truth(const std::string& dir, const Traje
   in.depth_max = s.sensor.depth_max;
   in.end_s = T_w_body.stamps.back();
   in.camera_position = [&T_w_body, &T_body_camera](Timestamp t) -> std::optional<Vec3> {
-    const double ts = to_seconds(t);
-    const auto& st = T_w_body.stamps;
-    const auto it = std::lower_bound(st.begin(), st.end(), ts);
-    std::size_t i = it == st.end() ? st.size() - 1 : static_cast<std::size_t>(it - st.begin());
-    if (i > 0 && std::fabs(st[i - 1] - ts) < std::fabs(st[i] - ts)) --i;
-    if (std::fabs(st[i] - ts) > 0.02) return std::nullopt;
-    return (T_w_body.poses[i] * T_body_camera).translation();
+    const auto i = nearest_pose(T_w_body, to_seconds(t), 0.02);
+    if (!i) return std::nullopt;
+    return (T_w_body.poses[*i] * T_body_camera).translation();
   };
   return object_truth(in, options);
 }

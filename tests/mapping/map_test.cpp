@@ -119,34 +119,6 @@ TEST(Map, RedundancyIsTheShareOfClosePointsOthersSeeAtTheSameScale) {
   EXPECT_DOUBLE_EQ(s.map.redundancy(s.kf.back() + 100, 10.0, 3), 0.0);  // no such keyframe
 }
 
-// The early-stopping test gives redundancy() > threshold exactly, whatever the order in which
-// its points decide: thresholds on both sides of, and at, each keyframe's share.
-TEST(Map, RedundantAgreesWithTheRedundancyShare) {
-  CullingScene s;
-  auto check = [&](const char* what) {
-    for (KeyframeId id : {s.kf[0], s.kf[1], s.kf[2], s.kf[3], s.kf[4], s.kf.back() + 100}) {
-      for (int observers : {1, 3, 4, 5}) {
-        for (double depth : {1.0, 10.0}) {
-          for (double thr : {-0.1, 0.0, 0.5, 0.74, 0.75, 0.76, 0.9, 0.999, 1.0}) {
-            EXPECT_EQ(s.map.redundant(id, depth, observers, thr),
-                      s.map.redundancy(id, depth, observers) > thr)
-                << what << " keyframe " << id << " observers " << observers << " depth " << depth
-                << " threshold " << thr;
-          }
-        }
-      }
-    }
-  };
-  check("as built");
-  // Unseen points first: the share is known to fall short before the seen ones come.
-  for (int i = 0; i < 5; ++i) {
-    const std::size_t f = static_cast<std::size_t>(i);
-    std::swap(s.map.keyframe(s.kf[4])->point_of_feature[f],
-              s.map.keyframe(s.kf[4])->point_of_feature[39 - f]);
-  }
-  check("reordered");
-}
-
 // A point seen from more keyframes than kDescriptorViews takes its descriptor from the newest
 // views: 20 old views say A, 20 new ones B (all 40 would tie, and the oldest would win).
 TEST(Map, APointsDescriptorComesFromItsNewestViews) {
