@@ -48,6 +48,27 @@ class BoundedQueue {
     return item;
   }
 
+  // As pop(), but wake() also ends the wait: nullopt then, and after close() once drained
+  // (closed() tells the two apart). A consumer with other work that arrives by another way (the
+  // tracking thread's mapping results) does it while no item waits, not when the next one comes.
+  std::optional<T> pop_or_wake() {
+    std::unique_lock<std::mutex> lock(mutex_);
+    not_empty_.wait(lock, [&] { return closed_ || woken_ || !items_.empty(); });
+    woken_ = false;
+    if (items_.empty()) return std::nullopt;
+    T item = std::move(items_.front());
+    items_.pop_front();
+    not_full_.notify_one();
+    return item;
+  }
+
+  // Ends one pop_or_wake() wait, the current one or, if none waits, the next.
+  void wake() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    woken_ = true;
+    not_empty_.notify_all();
+  }
+
   std::optional<T> try_pop() {
     std::lock_guard<std::mutex> lock(mutex_);
     if (items_.empty()) return std::nullopt;
@@ -63,6 +84,11 @@ class BoundedQueue {
     closed_ = true;
     not_empty_.notify_all();
     not_full_.notify_all();
+  }
+
+  bool closed() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return closed_;
   }
 
   std::size_t size() const {
@@ -87,6 +113,7 @@ class BoundedQueue {
   std::condition_variable not_full_;
   std::deque<T> items_;
   bool closed_ = false;
+  bool woken_ = false;
   std::size_t dropped_ = 0;
   std::size_t pushed_ = 0;
 };

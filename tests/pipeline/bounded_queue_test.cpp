@@ -42,5 +42,37 @@ TEST(BoundedQueue, CloseWakesConsumersAndRejectsPushes) {
   EXPECT_FALSE(q.push(1));
 }
 
+TEST(BoundedQueue, WakeEndsOneWaitWithoutLosingItems) {
+  BoundedQueue<int> q(4, FullPolicy::kBlock);
+  // A wake with nobody waiting ends the next wait, once.
+  q.wake();
+  EXPECT_FALSE(q.pop_or_wake().has_value());
+  EXPECT_FALSE(q.closed());
+  ASSERT_TRUE(q.push(1));
+  EXPECT_EQ(*q.pop_or_wake(), 1);
+
+  // A waiting consumer is woken from another thread; items pushed later still come, in order.
+  std::vector<int> got;
+  int wakes = 0;
+  std::thread consumer([&] {
+    for (;;) {
+      if (auto v = q.pop_or_wake()) {
+        got.push_back(*v);
+      } else if (q.closed()) {
+        return;
+      } else {
+        ++wakes;
+      }
+    }
+  });
+  q.wake();
+  for (int i = 0; i < 100; ++i) ASSERT_TRUE(q.push(i));
+  q.close();
+  consumer.join();
+  ASSERT_EQ(got.size(), 100u);
+  for (int i = 0; i < 100; ++i) EXPECT_EQ(got[i], i);
+  EXPECT_LE(wakes, 1);
+}
+
 }  // namespace
 }  // namespace kestrel::pipeline
