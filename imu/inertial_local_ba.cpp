@@ -64,19 +64,26 @@ mapping::LocalBaSolution solve_inertial_local_ba(const mapping::LocalBaProblem& 
                                        [](const auto& a, const auto& b) { return a.to < b.to; });
   const Vec3 bg0 = newest->imu.bias_gyro, ba0 = newest->imu.bias_acc;
   Vec3 bg = bg0, ba = ba0;
+  std::vector<std::unique_ptr<ceres::CostFunction>> owned;  // the problem does not own them
+  auto add = [&](ceres::CostFunction* cost) {
+    owned.emplace_back(cost);
+    return cost;
+  };
   auto terms = [&](ceres::Problem& problem, std::map<mapping::KeyframeId, Vec6>& poses) {
     for (const auto& e : pb.inertial) {
       const auto from = poses.find(e.from);
       const auto to = poses.find(e.to);
       if (from == poses.end() || to == poses.end()) continue;
       problem.AddResidualBlock(
-          new CameraImuFactor(with_floor(e.imu, io), e.gravity, e.T_body_camera), nullptr,
+          add(new CameraImuFactor(with_floor(e.imu, io), e.gravity, e.T_body_camera)), nullptr,
           from->second.data(), v_w[e.from].data(), bg.data(), ba.data(), to->second.data(),
           v_w[e.to].data());
     }
     if (problem.HasParameterBlock(bg.data())) {
-      problem.AddResidualBlock(new Vec3PriorFactor(bg0, io.gyro_bias_sigma), nullptr, bg.data());
-      problem.AddResidualBlock(new Vec3PriorFactor(ba0, io.acc_bias_sigma), nullptr, ba.data());
+      problem.AddResidualBlock(add(new Vec3PriorFactor(bg0, io.gyro_bias_sigma)), nullptr,
+                               bg.data());
+      problem.AddResidualBlock(add(new Vec3PriorFactor(ba0, io.acc_bias_sigma)), nullptr,
+                               ba.data());
     }
   };
   mapping::LocalBaSolution sol = mapping::solve_local_ba(pb, camera, options, terms);

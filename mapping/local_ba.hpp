@@ -111,7 +111,9 @@ struct LocalBaSolution {
 std::optional<LocalBaProblem> gather_local_ba(const Map& map, KeyframeId current,
                                               const LocalBaOptions& options = {});
 // More residuals for each stage's problem (imu/'s inertial factors): `poses` holds every
-// keyframe's block (log T_c_w, left-perturbed; fixed ones held constant by the solver).
+// keyframe's block (log T_c_w, left-perturbed; fixed ones held constant by the solver). The
+// problem owns neither cost nor loss functions: the caller keeps what it adds alive until
+// solve_local_ba returns.
 using ExtraTerms = std::function<void(ceres::Problem& problem, std::map<KeyframeId, Vec6>& poses)>;
 LocalBaSolution solve_local_ba(const LocalBaProblem& problem, const PinholeCamera& camera,
                                const LocalBaOptions& options = {},

@@ -1,6 +1,7 @@
 #pragma once
 // The features of one frame: keypoints (raw and undistorted), ORB descriptors, depth-based 3D
 // points and per-feature status. Plain data with a spatial grid for radius search; no OpenCV.
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <vector>
@@ -59,8 +60,22 @@ struct FrameFeatures {
 
   // Scale of a pyramid level relative to level 0, and its squared value (the variance of a
   // keypoint position in level-0 pixels grows with it).
-  // Inline because mapping/ uses it without linking the tracking library.
-  double level_scale(int level) const { return std::pow(static_cast<double>(scale_factor), level); }
+  // Inline because mapping/ uses it without linking the tracking library. The values of std::pow
+  // from a per-thread table: pow on every call was a tenth of the local-mapping thread's time
+  // (triangulation asks for every candidate pair's levels).
+  double level_scale(int level) const {
+    constexpr int kLevels = 32;
+    thread_local bool filled = false;
+    thread_local float table_factor = 0.0f;
+    thread_local std::array<double, kLevels> table{};
+    if (level < 0 || level >= kLevels) return std::pow(static_cast<double>(scale_factor), level);
+    if (!filled || scale_factor != table_factor) {
+      for (int l = 0; l < kLevels; ++l) table[l] = std::pow(static_cast<double>(scale_factor), l);
+      table_factor = scale_factor;
+      filled = true;
+    }
+    return table[level];
+  }
   double level_sigma2(int level) const { return level_scale(level) * level_scale(level); }
 
   // Keeps the features whose keep[i] != 0 (all per-feature arrays stay aligned) and rebuilds
