@@ -135,6 +135,9 @@ std::vector<Scene> plan(bool quick) {
   }
   scenes.push_back({"cafe", false, 15.0, static_modes});
   scenes.push_back({"office-static", true, 15.0, static_modes});
+  // The SLAM core issue wants corridor-dark tracked end to end with no lost frame: its whole
+  // 40 s (the dark turn facing a bare end wall comes at 18 s), with rejection and without.
+  scenes.push_back({"corridor-dark", true, 40.0, {"hybrid+yolo", "off"}});
   return scenes;
 }
 
