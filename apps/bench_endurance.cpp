@@ -78,6 +78,28 @@ nlohmann::json bench_endurance(const AreaOptions& o) {
   std::printf(
       "\nGoals (SLAM core issue): frame to pose p99 <= 33 ms; memory <= 1024 MiB after 10 "
       "minutes of market.\n");
+  // Latency along the run, in tenths of it (a minute of the ten): what grows with the map.
+  const std::vector<pipeline::LatencyWindow> windows =
+      pipeline::latency_windows(s.frame_latencies, duration / 10.0);
+  std::printf("\nFrame to pose along the run (ms)\n\n| stream time (s) |");
+  for (const auto& w : windows) std::printf(" %.0f-%.0f |", w.from_s, w.to_s);
+  std::printf("\n|---|");
+  for (std::size_t i = 0; i < windows.size(); ++i) std::printf("---|");
+  for (const char* row : {"p50", "p99"}) {
+    std::printf("\n| %s |", row);
+    for (const auto& w : windows) {
+      std::printf(" %.1f |", row[1] == '5' ? w.latency.p50_ms : w.latency.p99_ms);
+    }
+  }
+  std::printf("\n");
+  nlohmann::json by_window = nlohmann::json::array();
+  for (const auto& w : windows) {
+    by_window.push_back({{"from_s", w.from_s},
+                         {"to_s", w.to_s},
+                         {"frames", w.latency.count},
+                         {"p50", w.latency.p50_ms},
+                         {"p99", w.latency.p99_ms}});
+  }
 
   nlohmann::json samples = nlohmann::json::array();
   for (const pipeline::MemorySample& m : s.memory) samples.push_back({m.stream_s, m.rss_mib});
@@ -92,6 +114,7 @@ nlohmann::json bench_endurance(const AreaOptions& o) {
           {"ape_rmse_m", s.ape_rmse_m},
           {"frame_latency_ms",
            {{"p50", lat.p50_ms}, {"p90", lat.p90_ms}, {"p99", lat.p99_ms}, {"max", lat.max_ms}}},
+          {"frame_latency_ms_along_run", by_window},
           {"tracking_ms_median", s.tracking_ms_median},
           {"detection_ms_median", det.p50_ms},
           {"detections_dropped", counter("detection.dropped")},

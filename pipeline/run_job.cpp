@@ -70,6 +70,13 @@ class RunObserver : public Observer {
   // Called from the feeding thread for a frame that is not fed (a live run's drop).
   void skip() { advance("dropping"); }
   std::size_t reported() const { return reported_.load(); }
+  std::vector<std::pair<double, double>> latencies() {
+    std::lock_guard lock(mutex_);
+    std::vector<std::pair<double, double>> out;
+    out.reserve(rows_.size());
+    for (const auto& row : rows_) out.emplace_back(to_seconds(row.t), row.latency_ms);
+    return out;
+  }
   // One line per frame, so a user can see where and why a track was lost (frames.csv).
   void write_frames_csv(const std::string& path) {
     std::lock_guard lock(mutex_);
@@ -287,6 +294,7 @@ RunSummary run_sequence(io::MeasurementSource& source, const RunOptions& options
   timing["counters"]["frames.dropped"] = summary.dropped;
   summary.timing_json = timing.dump(2);
   summary.trajectory = traj;
+  summary.frame_latencies = observer.latencies();
   // Frames never read (a short source) leave empty slots.
   std::erase_if(summary.strip, [](const KeptFrame& k) { return k.frame.color.empty(); });
 

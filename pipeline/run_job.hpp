@@ -96,6 +96,9 @@ struct RunSummary {
   std::map<std::string, std::size_t> counters;
   std::vector<KeptFrame> strip;
   std::vector<MemorySample> memory;  // with memory_sample_s > 0; the last is after finish()
+  // Every reported frame's stamp (s) and its frame-to-pose latency (ms), in report order: how
+  // latency moves along a long run, which the whole run's percentiles hide.
+  std::vector<std::pair<double, double>> frame_latencies;
 };
 
 // The largest resident memory among the samples (0 for none).

@@ -30,6 +30,29 @@ LatencySummary summarize(const std::vector<double>& ms) {
   return s;
 }
 
+std::vector<LatencyWindow> latency_windows(const std::vector<std::pair<double, double>>& samples,
+                                           double window_s) {
+  std::vector<LatencyWindow> out;
+  if (samples.empty() || !(window_s > 0.0)) return out;
+  double t0 = samples.front().first, t1 = t0;
+  for (const auto& [t, ms] : samples) {
+    t0 = std::min(t0, t);
+    t1 = std::max(t1, t);
+  }
+  // The last window ends at the last stamp, not one past it (30 s of frames stamped 0..30 are
+  // ten windows of 3 s, the frame at 30 s in the tenth).
+  const auto last = std::max(0LL, static_cast<long long>(std::ceil((t1 - t0) / window_s)) - 1);
+  std::map<long long, std::vector<double>> bins;
+  for (const auto& [t, ms] : samples) {
+    bins[std::min(last, static_cast<long long>(std::floor((t - t0) / window_s)))].push_back(ms);
+  }
+  for (const auto& [k, ms] : bins) {
+    out.push_back(
+        {static_cast<double>(k) * window_s, static_cast<double>(k + 1) * window_s, summarize(ms)});
+  }
+  return out;
+}
+
 void StageStats::record(const std::string& stage, double ms) {
   std::lock_guard<std::mutex> lock(mutex_);
   samples_[stage].push_back(ms);

@@ -4,6 +4,7 @@
 #include <map>
 #include <mutex>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace kestrel::pipeline {
@@ -16,6 +17,17 @@ struct LatencySummary {
 // Percentile by linear interpolation between order statistics (numpy's default).
 double percentile(std::vector<double> values, double p);
 LatencySummary summarize(const std::vector<double>& ms);
+
+// Latency along a run: samples (stamp in seconds, latency in ms) cut into consecutive windows of
+// window_s from the first stamp, the last one closed at the last stamp; a window without
+// samples is left out. A whole run's p99 hides
+// a latency that grows with the map.
+struct LatencyWindow {
+  double from_s = 0, to_s = 0;  // stream time since the first sample
+  LatencySummary latency;
+};
+std::vector<LatencyWindow> latency_windows(const std::vector<std::pair<double, double>>& samples,
+                                           double window_s);
 
 class StageStats {
  public:

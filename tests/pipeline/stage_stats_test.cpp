@@ -18,6 +18,33 @@ TEST(StageStats, PercentilesMatchNumpyLinear) {
   EXPECT_DOUBLE_EQ(s.max_ms, 10.0);
 }
 
+TEST(StageStats, LatencyWindowsFollowTheStream) {
+  // 30 s of frames at 10 Hz, stamps from 100 s: 5 ms for 20 s, then 50 ms.
+  std::vector<std::pair<double, double>> samples;
+  for (int i = 0; i < 300; ++i) samples.emplace_back(100.0 + 0.1 * i, i < 200 ? 5.0 : 50.0);
+  const std::vector<LatencyWindow> w = latency_windows(samples, 10.0);
+  ASSERT_EQ(w.size(), 3u);
+  EXPECT_DOUBLE_EQ(w[0].from_s, 0.0);
+  EXPECT_DOUBLE_EQ(w[2].to_s, 30.0);
+  EXPECT_EQ(w[0].latency.count + w[1].latency.count + w[2].latency.count, 300u);
+  EXPECT_DOUBLE_EQ(w[1].latency.p99_ms, 5.0);
+  EXPECT_DOUBLE_EQ(w[2].latency.p50_ms, 50.0);
+  // A frame stamped at the end of the last window is in it, not in a window of its own.
+  samples.emplace_back(130.0, 50.0);
+  ASSERT_EQ(latency_windows(samples, 10.0).size(), 3u);
+  EXPECT_EQ(latency_windows(samples, 10.0)[2].latency.count, 101u);
+  // A gap in the stream leaves its windows out; nothing to cut gives nothing.
+  samples.emplace_back(200.0, 7.0);
+  const std::vector<LatencyWindow> gap = latency_windows(samples, 10.0);
+  ASSERT_EQ(gap.size(), 5u);  // the frame at 130 s now opens the window 30-40 s
+  EXPECT_DOUBLE_EQ(gap[3].from_s, 30.0);
+  EXPECT_DOUBLE_EQ(gap[4].from_s, 90.0);
+  EXPECT_DOUBLE_EQ(gap[4].to_s, 100.0);
+  EXPECT_EQ(gap[4].latency.count, 1u);
+  EXPECT_TRUE(latency_windows({}, 10.0).empty());
+  EXPECT_TRUE(latency_windows(samples, 0.0).empty());
+}
+
 TEST(StageStats, JsonHoldsStagesAndCounters) {
   StageStats st;
   st.record("tracking", 4.0);
