@@ -280,14 +280,12 @@ struct System::Impl {
       return;
     }
     // Live, what the local-mapping thread solved (a keyframe's triangulated points, a local
-    // BA) is written back between frames: after a frame's pose is out, and whenever a result
-    // comes while no frame waits. Completing a keyframe (culling, the next local BA's gather)
-    // took 8 ms at the median and 36 at p99 over the 10-minute endurance run; done as the next
-    // frame arrived it sat on that frame's latency.
+    // BA) is written back while no frame waits: completing a keyframe (culling, the next local
+    // BA's gather) took 8 ms at the median and 36 at p99 over the 10-minute endurance run, and
+    // done as the next frame arrived it sat on that frame's latency.
     for (;;) {
       if (auto q = frames.pop_or_wake()) {
         process(*q);
-        apply_mapping_results(false);
       } else if (frames.closed()) {
         return;
       } else {
@@ -713,8 +711,7 @@ struct System::Impl {
     }
 
     if (!world_initialized) initialize_world(frame.t);
-    // Lock-step: every result before the frame, so that runs reproduce (live: tracking_loop).
-    if (options.sequential) apply_mapping_results(true);
+    apply_mapping_results(options.sequential);
     const std::optional<tracking::MotionPrior> prior = inertial_prediction(frame.t);
 
     // Dynamic filter against the previous frame.
