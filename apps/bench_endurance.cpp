@@ -85,11 +85,11 @@ nlohmann::json bench_endurance(const AreaOptions& o) {
   for (const auto& w : windows) std::printf(" %.0f-%.0f |", w.from_s, w.to_s);
   std::printf("\n|---|");
   for (std::size_t i = 0; i < windows.size(); ++i) std::printf("---|");
-  for (const char* row : {"p50", "p99"}) {
-    std::printf("\n| %s |", row);
-    for (const auto& w : windows) {
-      std::printf(" %.1f |", row[1] == '5' ? w.latency.p50_ms : w.latency.p99_ms);
-    }
+  const std::pair<const char*, double pipeline::LatencySummary::*> rows[] = {
+      {"p50", &pipeline::LatencySummary::p50_ms}, {"p99", &pipeline::LatencySummary::p99_ms}};
+  for (const auto& [name, field] : rows) {
+    std::printf("\n| %s |", name);
+    for (const auto& w : windows) std::printf(" %.1f |", w.latency.*field);
   }
   std::printf("\n");
   nlohmann::json by_window = nlohmann::json::array();

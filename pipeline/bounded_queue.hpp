@@ -41,11 +41,7 @@ class BoundedQueue {
   std::optional<T> pop() {
     std::unique_lock<std::mutex> lock(mutex_);
     not_empty_.wait(lock, [&] { return closed_ || !items_.empty(); });
-    if (items_.empty()) return std::nullopt;
-    T item = std::move(items_.front());
-    items_.pop_front();
-    not_full_.notify_one();
-    return item;
+    return take_front();
   }
 
   // As pop(), but wake() also ends the wait: nullopt then, and after close() once drained
@@ -55,11 +51,7 @@ class BoundedQueue {
     std::unique_lock<std::mutex> lock(mutex_);
     not_empty_.wait(lock, [&] { return closed_ || woken_ || !items_.empty(); });
     woken_ = false;
-    if (items_.empty()) return std::nullopt;
-    T item = std::move(items_.front());
-    items_.pop_front();
-    not_full_.notify_one();
-    return item;
+    return take_front();
   }
 
   // Ends one pop_or_wake() wait, the current one or, if none waits, the next.
@@ -71,11 +63,7 @@ class BoundedQueue {
 
   std::optional<T> try_pop() {
     std::lock_guard<std::mutex> lock(mutex_);
-    if (items_.empty()) return std::nullopt;
-    T item = std::move(items_.front());
-    items_.pop_front();
-    not_full_.notify_one();
-    return item;
+    return take_front();
   }
 
   // No more pushes; consumers drain what is left, then pop() returns nullopt.
@@ -106,6 +94,15 @@ class BoundedQueue {
   std::size_t capacity() const { return capacity_; }
 
  private:
+  // The front item, if any; mutex_ held.
+  std::optional<T> take_front() {
+    if (items_.empty()) return std::nullopt;
+    T item = std::move(items_.front());
+    items_.pop_front();
+    not_full_.notify_one();
+    return item;
+  }
+
   const std::size_t capacity_;
   const FullPolicy policy_;
   mutable std::mutex mutex_;
