@@ -41,7 +41,9 @@ std::vector<LatencyWindow> latency_windows(const std::vector<std::pair<double, d
   }
   // The last window ends at the last stamp, not one past it (30 s of frames stamped 0..30 are
   // ten windows of 3 s, the frame at 30 s in the tenth).
-  const auto last = std::max(0LL, static_cast<long long>(std::ceil((t1 - t0) / window_s)) - 1);
+  // The span's rounding (stamps of 1/30 s summed to 30.000000001) does not open a window.
+  const auto last =
+      std::max(0LL, static_cast<long long>(std::ceil((t1 - t0) / window_s - 1e-6)) - 1);
   std::map<long long, std::vector<double>> bins;
   for (const auto& [t, ms] : samples) {
     bins[std::min(last, static_cast<long long>(std::floor((t - t0) / window_s)))].push_back(ms);

@@ -33,6 +33,10 @@ TEST(StageStats, LatencyWindowsFollowTheStream) {
   samples.emplace_back(130.0, 50.0);
   ASSERT_EQ(latency_windows(samples, 10.0).size(), 3u);
   EXPECT_EQ(latency_windows(samples, 10.0)[2].latency.count, 101u);
+  // Stamps of a 30 Hz stream, whose last one rounds just past 30 s, make ten windows of 3 s.
+  std::vector<std::pair<double, double>> stream;
+  for (int i = 0; i <= 900; ++i) stream.emplace_back(i / 30.0 + 1e-9 * (i == 900), 1.0);
+  EXPECT_EQ(latency_windows(stream, 3.0).size(), 10u);
   // A gap in the stream leaves its windows out; nothing to cut gives nothing.
   samples.emplace_back(200.0, 7.0);
   const std::vector<LatencyWindow> gap = latency_windows(samples, 10.0);
