@@ -6,6 +6,7 @@
 // tracker still has two in flight is dropped, as a live camera's would be (RunOptions::
 // max_frames_in_flight), and counted. The simulator renders on the feeding thread, so on a
 // 2-core machine it takes CPU a real camera would not.
+#include <cmath>
 #include <cstdio>
 
 #include "apps/bench_areas.hpp"
@@ -100,6 +101,43 @@ nlohmann::json bench_endurance(const AreaOptions& o) {
                          {"p50", w.latency.p50_ms},
                          {"p99", w.latency.p99_ms}});
   }
+  // The stages that grow as a revisited place gathers keyframes (README, "Endurance"): their
+  // medians per tenth of the run, by wall time, which a live run shares with its stream.
+  const char* const growing[] = {"tracking.match",
+                                 "tracking",
+                                 "mapping.keyframe",
+                                 "mapping.keyframe_finish",
+                                 "mapping.keyframe_finish.ba_gather",
+                                 "mapping.keyframe_finish.keyframe_culling",
+                                 "mapping.local_ba"};
+  std::printf("\nStages along the run, median per tenth of it (ms)\n\n| stage |");
+  for (int i = 0; i < 10; ++i) std::printf(" %d |", i + 1);
+  std::printf("\n|---|");
+  for (int i = 0; i < 10; ++i) std::printf("---|");
+  nlohmann::json stages_by_window = nlohmann::json::object();
+  for (const char* name : growing) {
+    const auto it = s.stage_timelines.find(name);
+    if (it == s.stage_timelines.end()) continue;
+    std::printf("\n| %s |", name);
+    // A tenth without a sample (no keyframe in it) stays empty rather than shifting the rest.
+    std::vector<double> p50(10, -1.0);
+    for (const auto& w : pipeline::latency_windows(it->second, duration / 10.0)) {
+      const auto k = static_cast<std::size_t>(std::lround(w.from_s / (duration / 10.0)));
+      if (k < p50.size()) p50[k] = w.latency.p50_ms;
+    }
+    nlohmann::json medians = nlohmann::json::array();
+    for (const double v : p50) {
+      if (v < 0) {
+        std::printf(" - |");
+        medians.push_back(nullptr);
+      } else {
+        std::printf(" %.1f |", v);
+        medians.push_back(v);
+      }
+    }
+    stages_by_window[name] = medians;
+  }
+  std::printf("\n");
 
   nlohmann::json samples = nlohmann::json::array();
   for (const pipeline::MemorySample& m : s.memory) samples.push_back({m.stream_s, m.rss_mib});
@@ -115,6 +153,7 @@ nlohmann::json bench_endurance(const AreaOptions& o) {
           {"frame_latency_ms",
            {{"p50", lat.p50_ms}, {"p90", lat.p90_ms}, {"p99", lat.p99_ms}, {"max", lat.max_ms}}},
           {"frame_latency_ms_along_run", by_window},
+          {"stage_p50_ms_along_run", stages_by_window},
           {"tracking_ms_median", s.tracking_ms_median},
           {"detection_ms_median", det.p50_ms},
           {"detections_dropped", counter("detection.dropped")},

@@ -287,6 +287,9 @@ RunSummary run_sequence(io::MeasurementSource& source, const RunOptions& options
     summary.detector_ms_median = it->second.p50_ms;
   }
   summary.stages = stages;
+  for (const auto& entry : stages) {
+    summary.stage_timelines[entry.first] = system.stats().timed_samples(entry.first);
+  }
   summary.counters = system.stats().counters();
   // The feeding side's drops sit beside the System's own queue counters.
   summary.counters["frames.dropped"] = summary.dropped;

@@ -99,6 +99,9 @@ struct RunSummary {
   // Every reported frame's stamp (s) and its frame-to-pose latency (ms), in report order: how
   // latency moves along a long run, which the whole run's percentiles hide.
   std::vector<std::pair<double, double>> frame_latencies;
+  // Every stage's samples as (s since the System started, ms): with a live run's pace, where
+  // along the run a stage grows.
+  std::map<std::string, std::vector<std::pair<double, double>>> stage_timelines;
 };
 
 // The largest resident memory among the samples (0 for none).

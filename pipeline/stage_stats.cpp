@@ -56,8 +56,10 @@ std::vector<LatencyWindow> latency_windows(const std::vector<std::pair<double, d
 }
 
 void StageStats::record(const std::string& stage, double ms) {
+  const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
   std::lock_guard<std::mutex> lock(mutex_);
   samples_[stage].push_back(ms);
+  sample_times_[stage].push_back(t);
 }
 
 void StageStats::count(const std::string& counter, std::size_t n) {
@@ -86,6 +88,17 @@ std::vector<double> StageStats::samples(const std::string& stage) const {
   std::lock_guard<std::mutex> lock(mutex_);
   auto it = samples_.find(stage);
   return it == samples_.end() ? std::vector<double>{} : it->second;
+}
+
+std::vector<std::pair<double, double>> StageStats::timed_samples(const std::string& stage) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  std::vector<std::pair<double, double>> out;
+  const auto it = samples_.find(stage);
+  if (it == samples_.end()) return out;
+  const std::vector<double>& when = sample_times_.at(stage);
+  out.reserve(it->second.size());
+  for (std::size_t i = 0; i < it->second.size(); ++i) out.emplace_back(when[i], it->second[i]);
+  return out;
 }
 
 std::string StageStats::to_json() const {

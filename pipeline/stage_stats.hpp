@@ -1,6 +1,7 @@
 #pragma once
 // Per-stage latency records (DESIGN.md: every stage records its latency; `kestrel bench` and
 // timing.json print percentiles). Thread-safe: stages on different threads record into one.
+#include <chrono>
 #include <map>
 #include <mutex>
 #include <string>
@@ -37,12 +38,17 @@ class StageStats {
   std::map<std::string, LatencySummary> summaries() const;
   std::map<std::string, std::size_t> counters() const;
   std::vector<double> samples(const std::string& stage) const;
+  // Each sample with when it was recorded (s since this StageStats was made, steady clock):
+  // a live run's wall time is its stream time, so latency_windows cuts a stage along the run.
+  std::vector<std::pair<double, double>> timed_samples(const std::string& stage) const;
   // {"stages": {name: {count, mean_ms, p50_ms, ...}}, "counters": {...}}
   std::string to_json() const;
 
  private:
   mutable std::mutex mutex_;
   std::map<std::string, std::vector<double>> samples_;
+  std::map<std::string, std::vector<double>> sample_times_;  // aligned with samples_
+  std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
   std::map<std::string, std::size_t> counters_;
 };
 

@@ -1,5 +1,8 @@
 #include "pipeline/stage_stats.hpp"
 
+#include <chrono>
+#include <thread>
+
 #include <gtest/gtest.h>
 
 namespace kestrel::pipeline {
@@ -47,6 +50,30 @@ TEST(StageStats, LatencyWindowsFollowTheStream) {
   EXPECT_EQ(gap[4].latency.count, 1u);
   EXPECT_TRUE(latency_windows({}, 10.0).empty());
   EXPECT_TRUE(latency_windows(samples, 0.0).empty());
+}
+
+// Each sample keeps when it was recorded, in order, so a long run's stage can be cut into
+// windows along it; the values are the ones recorded.
+TEST(StageStats, TimedSamplesKeepWhenEachWasRecorded) {
+  StageStats stats;
+  stats.record("a", 1.0);
+  std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  stats.record("b", 9.0);
+  stats.record("a", 2.0);
+  const auto a = stats.timed_samples("a");
+  ASSERT_EQ(a.size(), 2u);
+  EXPECT_EQ(a[0].second, 1.0);
+  EXPECT_EQ(a[1].second, 2.0);
+  EXPECT_GE(a[0].first, 0.0);
+  EXPECT_GE(a[1].first - a[0].first, 0.019);  // a sleep lasts at least as long as asked
+  const auto b = stats.timed_samples("b");
+  ASSERT_EQ(b.size(), 1u);
+  EXPECT_LE(b[0].first, a[1].first);
+  EXPECT_TRUE(stats.timed_samples("none").empty());
+  const auto windows = latency_windows(a, 0.01);
+  ASSERT_GE(windows.size(), 2u);
+  EXPECT_EQ(windows.front().latency.max_ms, 1.0);
+  EXPECT_EQ(windows.back().latency.max_ms, 2.0);
 }
 
 TEST(StageStats, JsonHoldsStagesAndCounters) {
