@@ -6,6 +6,7 @@
 #include <map>
 #include <memory>
 #include <set>
+#include <unordered_map>
 
 namespace kestrel::mapping {
 
@@ -230,13 +231,23 @@ std::optional<LocalBaProblem> gather_local_ba(const Map& map, KeyframeId current
   LocalBaProblem pb;
   pb.current = current;
   std::set<KeyframeId> fixed;
+  // A revisited place's points are each seen by tens of keyframes, the same few hundred over
+  // and over: each is looked up in the map (and sorted in or out of the window) once.
+  std::unordered_map<KeyframeId, const Keyframe*> seen;
+  const auto keyframe_of = [&](KeyframeId kid) {
+    const auto [it, first_time] = seen.try_emplace(kid, nullptr);
+    if (first_time) {
+      it->second = map.keyframe(kid);
+      if (it->second && !local.count(kid)) fixed.insert(kid);
+    }
+    return it->second;
+  };
   for (PointId pid : points) {
     const auto* mp = map.point(pid);
-    pb.points[pid] = mp->p_w;
+    pb.points.emplace_hint(pb.points.end(), pid, mp->p_w);
     for (const auto& [kid, feature] : mp->observations) {
-      const Keyframe* kf = map.keyframe(kid);
+      const Keyframe* kf = keyframe_of(kid);
       if (!kf) continue;
-      if (!local.count(kid)) fixed.insert(kid);
       const auto& f = kf->features;
       const auto fi = static_cast<std::size_t>(feature);
       const auto& kp = f.keypoints[fi];
