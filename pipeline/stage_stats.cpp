@@ -58,8 +58,9 @@ std::vector<LatencyWindow> latency_windows(const std::vector<std::pair<double, d
 void StageStats::record(const std::string& stage, double ms) {
   const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
   std::lock_guard<std::mutex> lock(mutex_);
-  samples_[stage].push_back(ms);
-  sample_times_[stage].push_back(t);
+  Series& series = samples_[stage];
+  series.ms.push_back(ms);
+  series.at_s.push_back(t);
 }
 
 void StageStats::count(const std::string& counter, std::size_t n) {
@@ -75,7 +76,7 @@ void StageStats::set_counter(const std::string& counter, std::size_t n) {
 std::map<std::string, LatencySummary> StageStats::summaries() const {
   std::lock_guard<std::mutex> lock(mutex_);
   std::map<std::string, LatencySummary> out;
-  for (const auto& [name, v] : samples_) out[name] = summarize(v);
+  for (const auto& [name, series] : samples_) out[name] = summarize(series.ms);
   return out;
 }
 
@@ -87,7 +88,7 @@ std::map<std::string, std::size_t> StageStats::counters() const {
 std::vector<double> StageStats::samples(const std::string& stage) const {
   std::lock_guard<std::mutex> lock(mutex_);
   auto it = samples_.find(stage);
-  return it == samples_.end() ? std::vector<double>{} : it->second;
+  return it == samples_.end() ? std::vector<double>{} : it->second.ms;
 }
 
 std::vector<std::pair<double, double>> StageStats::timed_samples(const std::string& stage) const {
@@ -95,9 +96,9 @@ std::vector<std::pair<double, double>> StageStats::timed_samples(const std::stri
   std::vector<std::pair<double, double>> out;
   const auto it = samples_.find(stage);
   if (it == samples_.end()) return out;
-  const std::vector<double>& when = sample_times_.at(stage);
-  out.reserve(it->second.size());
-  for (std::size_t i = 0; i < it->second.size(); ++i) out.emplace_back(when[i], it->second[i]);
+  const Series& series = it->second;
+  out.reserve(series.ms.size());
+  for (std::size_t i = 0; i < series.ms.size(); ++i) out.emplace_back(series.at_s[i], series.ms[i]);
   return out;
 }
 

@@ -46,8 +46,11 @@ class StageStats {
 
  private:
   mutable std::mutex mutex_;
-  std::map<std::string, std::vector<double>> samples_;
-  std::map<std::string, std::vector<double>> sample_times_;  // aligned with samples_
+  struct Series {
+    std::vector<double> ms;
+    std::vector<double> at_s;  // when each was recorded, aligned with ms
+  };
+  std::map<std::string, Series> samples_;
   std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
   std::map<std::string, std::size_t> counters_;
 };
