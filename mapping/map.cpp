@@ -260,29 +260,64 @@ void Map::update_connections(KeyframeId kid, int min_shared) {
   }
 }
 
+bool Map::seen_by_others(const MapPoint& p, KeyframeId kid, int level, int observers) const {
+  int seen = 0;
+  for (const auto& [other, feature] : p.observations) {
+    if (other == kid) continue;
+    const Keyframe* o = keyframe(other);
+    if (!o || feature < 0 || feature >= static_cast<int>(o->features.keypoints.size())) continue;
+    if (o->features.keypoints[static_cast<std::size_t>(feature)].level <= level + 1 &&
+        ++seen >= observers) {
+      return true;
+    }
+  }
+  return false;
+}
+
+bool Map::is_close_point(const Keyframe& kf, std::size_t i, double max_depth) const {
+  const auto& ff = kf.features;
+  return point(kf.point_of_feature[i]) && i < ff.depth.size() && ff.depth[i] > 0.0 &&
+         ff.depth[i] <= max_depth;
+}
+
 double Map::redundancy(KeyframeId kid, double max_depth, int observers) const {
   const Keyframe* kf = keyframe(kid);
   if (!kf) return 0.0;
   int close = 0, redundant = 0;
-  const auto& ff = kf->features;
   for (std::size_t i = 0; i < kf->point_of_feature.size(); ++i) {
-    const MapPoint* p = point(kf->point_of_feature[i]);
-    if (!p || i >= ff.depth.size() || ff.depth[i] <= 0.0 || ff.depth[i] > max_depth) continue;
+    if (!is_close_point(*kf, i, max_depth)) continue;
     ++close;
-    const int level = ff.keypoints[i].level;
-    int seen = 0;
-    for (const auto& [other, feature] : p->observations) {
-      if (other == kid) continue;
-      const Keyframe* o = keyframe(other);
-      if (!o || feature < 0 || feature >= static_cast<int>(o->features.keypoints.size())) continue;
-      if (o->features.keypoints[static_cast<std::size_t>(feature)].level <= level + 1 &&
-          ++seen >= observers) {
-        break;
-      }
-    }
-    redundant += seen >= observers ? 1 : 0;
+    redundant += seen_by_others(*point(kf->point_of_feature[i]), kid,
+                                kf->features.keypoints[i].level, observers)
+                     ? 1
+                     : 0;
   }
   return close > 0 ? static_cast<double>(redundant) / close : 0.0;
+}
+
+bool Map::is_redundant(KeyframeId kid, double max_depth, int observers, double fraction) const {
+  const Keyframe* kf = keyframe(kid);
+  if (!kf) return false;
+  // Counting the close points first costs no walk through their views; then the walks stop as
+  // soon as the answer is known. On a place revisited for minutes a point has 25 views or more,
+  // and most neighbours judged are not redundant: a tenth of their points decides.
+  int close = 0;
+  for (std::size_t i = 0; i < kf->point_of_feature.size(); ++i) {
+    close += is_close_point(*kf, i, max_depth) ? 1 : 0;
+  }
+  if (close == 0) return false;
+  const double needed = fraction * close;  // redundant > needed
+  int redundant = 0, judged = 0;
+  for (std::size_t i = 0; i < kf->point_of_feature.size(); ++i) {
+    if (!is_close_point(*kf, i, max_depth)) continue;
+    ++judged;
+    if (seen_by_others(*point(kf->point_of_feature[i]), kid, kf->features.keypoints[i].level,
+                       observers)) {
+      if (++redundant > needed) return true;
+    }
+    if (redundant + (close - judged) <= needed) return false;
+  }
+  return false;
 }
 
 void Map::erase_keyframe(KeyframeId kid) {

@@ -110,6 +110,9 @@ class Map {
   // fraction that at least `observers` other keyframes see at the same or a finer pyramid level
   // (one level of slack). 0 when kf has no such point.
   double redundancy(KeyframeId kf, double max_depth, int observers = 3) const;
+  // redundancy(kf, max_depth, observers) > fraction, found walking only as many points as it
+  // takes to know.
+  bool is_redundant(KeyframeId kf, double max_depth, int observers, double fraction) const;
   // Removes a keyframe: its observations (a point it alone saw goes with it) and its
   // covisibility edges (a neighbour left with no link gets its strongest one back; the weights
   // between the others do not change). A gyro link to it is carried
@@ -137,6 +140,11 @@ class Map {
                std::unordered_map<PointId, MapPoint> points);
 
  private:
+  // The keyframe-culling test's parts: feature i of kf has a map point closer than max_depth;
+  // p is seen by `observers` keyframes other than kid at a pyramid level <= level + 1.
+  bool is_close_point(const Keyframe& kf, std::size_t i, double max_depth) const;
+  bool seen_by_others(const MapPoint& p, KeyframeId kid, int level, int observers) const;
+
   std::map<KeyframeId, Keyframe> keyframes_;
   std::unordered_map<PointId, MapPoint> points_;
   std::vector<PointId> recent_points_;  // candidates for culling

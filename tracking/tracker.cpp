@@ -728,8 +728,8 @@ std::vector<KeyframeId> Tracker::cull_keyframes(KeyframeId newest, KeyframeId pr
     if (id != newest && id != previous && id != first) candidates.push_back(id);
   }
   for (KeyframeId id : candidates) {
-    if (map_.redundancy(id, options_.close_depth, options_.keyframe_cull_observers) >
-        options_.keyframe_cull_redundancy) {
+    if (map_.is_redundant(id, options_.close_depth, options_.keyframe_cull_observers,
+                          options_.keyframe_cull_redundancy)) {
       map_.erase_keyframe(id);
       culled.push_back(id);
     }

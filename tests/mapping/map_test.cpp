@@ -119,6 +119,25 @@ TEST(Map, RedundancyIsTheShareOfClosePointsOthersSeeAtTheSameScale) {
   EXPECT_DOUBLE_EQ(s.map.redundancy(s.kf.back() + 100, 10.0, 3), 0.0);  // no such keyframe
 }
 
+// The early-stopping test agrees with the share it stands for, at and around the boundary
+// (keyframes 0 and 4: exactly 30 of 40).
+TEST(Map, IsRedundantAgreesWithTheRedundancyShare) {
+  CullingScene s;
+  for (const int observers : {1, 3, 4, 5}) {
+    for (const double max_depth : {1.0, 2.2, 10.0}) {
+      for (KeyframeId id : s.kf) {
+        const double share = s.map.redundancy(id, max_depth, observers);
+        for (const double fraction : {0.0, 0.5, 0.74, 0.75, 0.76, 0.9, 1.0}) {
+          EXPECT_EQ(s.map.is_redundant(id, max_depth, observers, fraction), share > fraction)
+              << "keyframe " << id << ", observers " << observers << ", depth " << max_depth
+              << ", fraction " << fraction << ", share " << share;
+        }
+      }
+    }
+  }
+  EXPECT_FALSE(s.map.is_redundant(s.kf.back() + 100, 10.0, 3, 0.0));  // no such keyframe
+}
+
 // A point seen from more keyframes than kDescriptorViews takes its descriptor from the newest
 // views: 20 old views say A, 20 new ones B (all 40 would tie, and the oldest would win).
 TEST(Map, APointsDescriptorComesFromItsNewestViews) {
