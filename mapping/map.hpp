@@ -10,6 +10,7 @@
 #include "core/imu.hpp"
 #include "core/se3.hpp"
 #include "core/timestamp.hpp"
+#include "mapping/flat_keyframe_map.hpp"
 #include "tracking/frame_features.hpp"
 
 namespace kestrel::mapping {
@@ -17,15 +18,14 @@ namespace kestrel::mapping {
 using tracking::FrameFeatures;
 using tracking::OrbDescriptor;
 using PointId = std::int64_t;
-using KeyframeId = std::int64_t;
 inline constexpr PointId kNoPoint = -1;
 
 struct MapPoint {
   PointId id = kNoPoint;
   Vec3 p_w = Vec3::Zero();
-  OrbDescriptor descriptor;                // the most representative of its observations
-  Vec3 normal = Vec3::UnitZ();             // mean viewing direction (camera centre to point), unit
-  std::map<KeyframeId, int> observations;  // keyframe -> feature index in that keyframe
+  OrbDescriptor descriptor;      // the most representative of its observations
+  Vec3 normal = Vec3::UnitZ();   // mean viewing direction (camera centre to point), unit
+  FlatKeyframeMap observations;  // keyframe -> feature index in that keyframe
   KeyframeId first_keyframe = -1;
   // Culling statistics: how often the point was predicted in view vs. actually matched.
   int visible = 1;
@@ -65,7 +65,7 @@ struct Keyframe {
   SE3 T_w_c;
   FrameFeatures features;
   std::vector<PointId> point_of_feature;  // kNoPoint where a feature has no map point
-  std::map<KeyframeId, int> connections;  // covisibility: shared map points per keyframe
+  FlatKeyframeMap connections;            // covisibility: shared map points per keyframe
   std::optional<GyroLink> gyro;           // to the keyframe before it, when there is an IMU
   // Body (IMU) velocity in the world when the keyframe was taken: the IMU's prediction, then
   // visual-inertial local BA's estimate. Session-only, like the gyro link.

@@ -175,10 +175,10 @@ TEST(Map, ErasingAKeyframeRelinksTheNeighboursItLeavesAlone) {
     if (i < 5) map.add_observation(p, c, i);
   }
   for (KeyframeId id : {a, b, c}) map.update_connections(id);
-  ASSERT_EQ(map.keyframe(b)->connections, (std::map<KeyframeId, int>{{a, 30}}));
+  ASSERT_EQ(map.keyframe(b)->connections, (mapping::FlatKeyframeMap{{a, 30}}));
   map.erase_keyframe(a);
-  EXPECT_EQ(map.keyframe(b)->connections, (std::map<KeyframeId, int>{{c, 5}}));
-  EXPECT_EQ(map.keyframe(c)->connections, (std::map<KeyframeId, int>{{b, 5}}));
+  EXPECT_EQ(map.keyframe(b)->connections, (mapping::FlatKeyframeMap{{c, 5}}));
+  EXPECT_EQ(map.keyframe(c)->connections, (mapping::FlatKeyframeMap{{b, 5}}));
   for (KeyframeId id : {b, c}) {
     const auto kept = map.keyframe(id)->connections;
     map.update_connections(id);
