@@ -131,10 +131,19 @@ void Map::update_point_descriptor(PointId pid) {
     p->descriptor = *descs.front();
     return;
   }
+  // Each distance once (the matrix is symmetric): half the Hamming work of a keyframe's
+  // insertion, which updates every point it tracked.
+  const std::size_t n = descs.size();
+  std::vector<int> dist(n * n, 0);
+  for (std::size_t i = 0; i < n; ++i) {
+    for (std::size_t j = i + 1; j < n; ++j) {
+      dist[i * n + j] = dist[j * n + i] = tracking::hamming(*descs[i], *descs[j]);
+    }
+  }
   int best_median = std::numeric_limits<int>::max();
-  std::vector<int> d(descs.size());
-  for (std::size_t i = 0; i < descs.size(); ++i) {
-    for (std::size_t j = 0; j < descs.size(); ++j) d[j] = tracking::hamming(*descs[i], *descs[j]);
+  std::vector<int> d(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    std::copy_n(dist.begin() + static_cast<std::ptrdiff_t>(i * n), n, d.begin());
     std::nth_element(d.begin(), d.begin() + static_cast<long>(d.size() / 2), d.end());
     if (d[d.size() / 2] < best_median) {
       best_median = d[d.size() / 2];
