@@ -6,7 +6,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <stdexcept>
+#include <unordered_map>
 
 #include "core/camera.hpp"
 #include "core/grey_levels.hpp"
@@ -156,6 +158,63 @@ std::vector<cv::Mat> from_level(const std::vector<cv::Mat>& pyramid, int base) {
   return {pyramid.begin() + static_cast<long>(skip), pyramid.end()};
 }
 
+// Step 7 of classify_features (DynamicFilterOptions::coherent_neighbours): `departure[i]` is
+// where the flow put feature i in the previous frame minus where the ego-motion puts it.
+void demote_incoherent_flow(const std::vector<cv::Point2f>& pts_cur,
+                            const std::vector<cv::Point2f>& departure,
+                            const DynamicFilterOptions& opt, DynamicFilterResult& out) {
+  const std::size_t n = pts_cur.size();
+  // Any feature found moving with its 3D residual known may vouch for a neighbour (a walker's
+  // arm outside its box moves as its box's features do); only those flagged outside boxes by
+  // that residual alone are in question.
+  std::vector<std::size_t> flagged, witnesses;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (out.labels[i] != FeatureLabel::kDynamic || out.residual3d_px[i] < 0) continue;
+    witnesses.push_back(i);
+    if (out.reasons[i] == LabelReason::kFlowResidual) flagged.push_back(i);
+  }
+  if (flagged.empty()) return;
+  // Buckets of one radius: a feature's neighbours lie in its own and the 8 around it.
+  const double cell = std::max(opt.coherence_radius_px, 1.0);
+  std::unordered_map<std::int64_t, std::vector<std::size_t>> grid;
+  const auto cell_of = [&](const cv::Point2f& p) {
+    return std::pair<std::int64_t, std::int64_t>(static_cast<std::int64_t>(std::floor(p.x / cell)),
+                                                 static_cast<std::int64_t>(std::floor(p.y / cell)));
+  };
+  const auto key = [](std::int64_t cx, std::int64_t cy) { return (cx << 32) ^ (cy & 0xffffffff); };
+  for (std::size_t i : witnesses) {
+    const auto [cx, cy] = cell_of(pts_cur[i]);
+    grid[key(cx, cy)].push_back(i);
+  }
+  const double r2 = opt.coherence_radius_px * opt.coherence_radius_px;
+  std::vector<std::size_t> demote;
+  for (std::size_t i : flagged) {
+    const cv::Point2f di = departure[i];
+    const double tol = std::max(2.0, 0.3 * std::hypot(di.x, di.y));
+    const auto [cx, cy] = cell_of(pts_cur[i]);
+    int agreeing = 0;
+    for (std::int64_t dy = -1; dy <= 1 && agreeing < opt.coherent_neighbours; ++dy) {
+      for (std::int64_t dx = -1; dx <= 1 && agreeing < opt.coherent_neighbours; ++dx) {
+        const auto it = grid.find(key(cx + dx, cy + dy));
+        if (it == grid.end()) continue;
+        for (std::size_t j : it->second) {
+          if (j == i) continue;
+          const cv::Point2f d = pts_cur[j] - pts_cur[i];
+          if (double(d.x) * d.x + double(d.y) * d.y > r2) continue;
+          const cv::Point2f dd = departure[j] - di;
+          if (std::hypot(dd.x, dd.y) <= tol && ++agreeing >= opt.coherent_neighbours) break;
+        }
+      }
+    }
+    if (agreeing < opt.coherent_neighbours) demote.push_back(i);
+  }
+  // Judged against the witnesses as they were, so the order of the features does not matter.
+  for (std::size_t i : demote) {
+    out.labels[i] = FeatureLabel::kUnknown;
+    out.reasons[i] = LabelReason::kIncoherentFlow;
+  }
+}
+
 }  // namespace
 
 struct FlowPyramid::Levels {
@@ -229,6 +288,10 @@ const char* to_string(LabelReason r) {
       return "outline-no-depth";
     case LabelReason::kFarBoxNoDepth:
       return "far-box-no-depth";
+    case LabelReason::kIncoherentFlow:
+      return "incoherent-flow";
+    case LabelReason::kAmbiguousFlow:
+      return "ambiguous-flow";
   }
   return "?";
 }
@@ -421,8 +484,11 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
     lk_cur[i] = pts_cur[i] / scale;
     lk_prev[i] = pts_prev[i] / scale;
   }
-  cv::calcOpticalFlowPyrLK(cur_levels, prev_levels, lk_cur, lk_prev, st1, cv::noArray(), win,
-                           levels, term, flags, opt.lk_min_eigen);
+  std::vector<float> lk_err;  // the patches' mean error, for ego_flow_retry only
+  const cv::_OutputArray err_out =
+      opt.ego_flow_retry ? cv::_OutputArray(lk_err) : cv::_OutputArray(cv::noArray());
+  cv::calcOpticalFlowPyrLK(cur_levels, prev_levels, lk_cur, lk_prev, st1, err_out, win, levels,
+                           term, flags, opt.lk_min_eigen);
   pts_back = lk_cur;
   cv::calcOpticalFlowPyrLK(prev_levels, cur_levels, lk_prev, pts_back, st2, cv::noArray(), win,
                            std::min(opt.lk_backward_levels, levels), term,
@@ -464,6 +530,7 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
   const bool has_depth = in.depth_m.size() == n;
   std::vector<double> residual3d(n, -1.0);
   std::vector<double> depth_change(n, -1.0), depth_err_m(n, -1.0);
+  std::vector<cv::Point2f> departure(n, cv::Point2f(0, 0));  // flow minus ego-motion, with depth
   bool have_3d = false;
   if (has_depth) {
     const Mat3 Kinv = in.K.inverse();
@@ -536,6 +603,7 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
           const double u = Kcv(0, 0) * p[0] / p[2] + Kcv(0, 2);
           const double v = Kcv(1, 1) * p[1] / p[2] + Kcv(1, 2);
           residual3d[i] = std::hypot(u - pts_prev[i].x, v - pts_prev[i].y);
+          departure[i] = pts_prev[i] - cv::Point2f(static_cast<float>(u), static_cast<float>(v));
           if (in.prev_depth && !in.prev_depth->empty()) {
             // The previous depth around where the flow puts the point; the reading nearest the
             // prediction in a 3x3 window, so that a point beside a depth step is not judged by
@@ -787,6 +855,41 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
     }
     if (out.labels[i] == FeatureLabel::kStatic) out.reasons[i] = LabelReason::kStaticInBox;
   }
+  // 6. Flow that a second start at the ego-motion's prediction explains as well: the patch's
+  // flow is ambiguous (a dim, noise-dominated surface whose coarse pyramid levels hold no
+  // texture, where the flow from the feature's own position stops short), not a mover.
+  if (opt.ego_flow_retry && have_3d) {
+    std::vector<std::size_t> retry;
+    std::vector<cv::Point2f> from_cur, to_prev;
+    for (std::size_t i = 0; i < n; ++i) {
+      if (out.reasons[i] != LabelReason::kFlowResidual || residual3d[i] < 0) continue;
+      retry.push_back(i);
+      from_cur.push_back(lk_cur[i]);
+      to_prev.push_back((pts_prev[i] - departure[i]) / scale);
+    }
+    if (!retry.empty()) {
+      std::vector<cv::Point2f> predicted = to_prev, back = from_cur;
+      std::vector<unsigned char> st_f, st_b;
+      std::vector<float> err;
+      const int retry_levels = std::min(levels, 1);
+      cv::calcOpticalFlowPyrLK(cur_levels, prev_levels, from_cur, to_prev, st_f, err, win,
+                               retry_levels, term, cv::OPTFLOW_USE_INITIAL_FLOW, opt.lk_min_eigen);
+      cv::calcOpticalFlowPyrLK(prev_levels, cur_levels, to_prev, back, st_b, cv::noArray(), win,
+                               retry_levels, term, cv::OPTFLOW_USE_INITIAL_FLOW);
+      for (std::size_t k = 0; k < retry.size(); ++k) {
+        const std::size_t i = retry[k];
+        const cv::Point2f fb = back[k] * scale - pts_cur[i];
+        const cv::Point2f off = (to_prev[k] - predicted[k]) * scale;
+        if (st_f[k] && st_b[k] && std::hypot(fb.x, fb.y) <= opt.fb_max_error_px &&
+            std::hypot(off.x, off.y) <= thr_out[i] &&
+            err[k] <= opt.ego_flow_err_ratio * lk_err[i]) {
+          out.labels[i] = FeatureLabel::kUnknown;
+          out.reasons[i] = LabelReason::kAmbiguousFlow;
+        }
+      }
+    }
+  }
+  if (opt.coherent_neighbours > 0) demote_incoherent_flow(pts_cur, departure, opt, out);
   return out;
 }
 

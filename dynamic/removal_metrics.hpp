@@ -28,7 +28,7 @@ struct RemovalCounts {
   std::size_t dynamic_near_outline = 0;
   std::size_t dynamic_near_outline_removed = 0;
   // Where the errors come from, by the filter's reason (index: LabelReason).
-  static constexpr std::size_t kReasons = 15;
+  static constexpr std::size_t kReasons = 17;
   std::array<std::size_t, kReasons> dynamic_missed_by_reason{};
   std::array<std::size_t, kReasons> static_removed_by_reason{};
 
