@@ -283,10 +283,10 @@ bool Map::seen_by_others(const MapPoint& p, KeyframeId kid, int level, int obser
   return false;
 }
 
-bool Map::is_close_point(const Keyframe& kf, std::size_t i, double max_depth) const {
+const MapPoint* Map::close_point(const Keyframe& kf, std::size_t i, double max_depth) const {
   const auto& ff = kf.features;
-  return point(kf.point_of_feature[i]) && i < ff.depth.size() && ff.depth[i] > 0.0 &&
-         ff.depth[i] <= max_depth;
+  if (i >= ff.depth.size() || ff.depth[i] <= 0.0 || ff.depth[i] > max_depth) return nullptr;
+  return point(kf.point_of_feature[i]);
 }
 
 double Map::redundancy(KeyframeId kid, double max_depth, int observers) const {
@@ -294,12 +294,10 @@ double Map::redundancy(KeyframeId kid, double max_depth, int observers) const {
   if (!kf) return 0.0;
   int close = 0, redundant = 0;
   for (std::size_t i = 0; i < kf->point_of_feature.size(); ++i) {
-    if (!is_close_point(*kf, i, max_depth)) continue;
+    const MapPoint* p = close_point(*kf, i, max_depth);
+    if (!p) continue;
     ++close;
-    redundant += seen_by_others(*point(kf->point_of_feature[i]), kid,
-                                kf->features.keypoints[i].level, observers)
-                     ? 1
-                     : 0;
+    redundant += seen_by_others(*p, kid, kf->features.keypoints[i].level, observers) ? 1 : 0;
   }
   return close > 0 ? static_cast<double>(redundant) / close : 0.0;
 }
@@ -312,16 +310,16 @@ bool Map::is_redundant(KeyframeId kid, double max_depth, int observers, double f
   // and most neighbours judged are not redundant: a tenth of their points decides.
   int close = 0;
   for (std::size_t i = 0; i < kf->point_of_feature.size(); ++i) {
-    close += is_close_point(*kf, i, max_depth) ? 1 : 0;
+    close += close_point(*kf, i, max_depth) ? 1 : 0;
   }
   if (close == 0) return false;
   const double needed = fraction * close;  // redundant > needed
   int redundant = 0, judged = 0;
   for (std::size_t i = 0; i < kf->point_of_feature.size(); ++i) {
-    if (!is_close_point(*kf, i, max_depth)) continue;
+    const MapPoint* p = close_point(*kf, i, max_depth);
+    if (!p) continue;
     ++judged;
-    if (seen_by_others(*point(kf->point_of_feature[i]), kid, kf->features.keypoints[i].level,
-                       observers)) {
+    if (seen_by_others(*p, kid, kf->features.keypoints[i].level, observers)) {
       if (++redundant > needed) return true;
     }
     if (redundant + (close - judged) <= needed) return false;

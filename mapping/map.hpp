@@ -140,9 +140,10 @@ class Map {
                std::unordered_map<PointId, MapPoint> points);
 
  private:
-  // The keyframe-culling test's parts: feature i of kf has a map point closer than max_depth;
-  // p is seen by `observers` keyframes other than kid at a pyramid level <= level + 1.
-  bool is_close_point(const Keyframe& kf, std::size_t i, double max_depth) const;
+  // The keyframe-culling test's parts: the map point of feature i of kf when its depth is
+  // within max_depth (else nullptr); p is seen by `observers` keyframes other than kid at a
+  // pyramid level <= level + 1.
+  const MapPoint* close_point(const Keyframe& kf, std::size_t i, double max_depth) const;
   bool seen_by_others(const MapPoint& p, KeyframeId kid, int level, int observers) const;
 
   std::map<KeyframeId, Keyframe> keyframes_;
