@@ -600,15 +600,17 @@ bool Tracker::need_keyframe(const FrameFeatures& f, const Matched& m, int inlier
   // ORB-SLAM counts an RGB-D observation twice, so its "3 observations" is 2 keyframes here.
   const int min_obs = n_kfs <= 2 ? 1 : 2;
   const int ref_matches = map_.tracked_points(reference_kf_, min_obs);
-  int tracked_close = 0, untracked_close = 0;
+  int tracked_close = 0, untracked_close = 0, untracked = 0;
   const double close_depth = close_depth_for(f, options_.close_depth);
   for (std::size_t i = 0; i < f.size(); ++i) {
-    if (!f.has_depth(i) || f.depth[i] > close_depth || f.status[i] != FeatureStatus::kStatic) {
-      continue;
-    }
+    if (!f.has_depth(i) || f.status[i] != FeatureStatus::kStatic) continue;
+    untracked += m.point[i] == kNoPoint ? 1 : 0;
+    if (f.depth[i] > close_depth) continue;
     (m.point[i] != kNoPoint ? tracked_close : untracked_close) += 1;
   }
-  const bool need_close = tracked_close < 100 && untracked_close > 70;
+  // TrackerOptions::weak_inliers: weak tracking with unmapped scenery in view.
+  const bool weak = inliers < options_.weak_inliers && untracked > options_.weak_new_points;
+  const bool need_close = (tracked_close < 100 && untracked_close > 70) || weak;
   const double ratio = n_kfs < 2 ? 0.4 : options_.keyframe_ratio;
   const bool c1 = frames_since_keyframe_ >= options_.max_frames_between_keyframes ||
                   frames_since_keyframe_ >= options_.min_frames_between_keyframes ||

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <iostream>
 #include <memory>
+#include <random>
 
 #include "io/image_io.hpp"
 #include "synthetic_scene.hpp"
@@ -284,6 +285,59 @@ TEST(Tracker, LongLostWithoutPredictionRestartsAtTheLastPose) {
 
 // Back and forth over the same short path: with culling the map keeps fewer keyframes than
 // were inserted, every culled one is gone from it, and it stays consistent and accurate.
+// Hand-made features of a still camera: `near` features at 2 m (their descriptors `seed` + i),
+// then `far` ones at 8 m with descriptors no near feature has, spread over the image.
+FrameFeatures still_features(const PinholeCamera& cam, int near, int far, int first_near = 0) {
+  FrameFeatures f;
+  f.width = cam.width;
+  f.height = cam.height;
+  const auto add = [&](int id, double u, double v, double z) {
+    Keypoint k;
+    k.px = k.un = Vec2(u, v);
+    f.keypoints.push_back(k);
+    OrbDescriptor d;
+    // Far apart in Hamming distance: every feature its own pattern of 64-bit words.
+    std::mt19937_64 rng(static_cast<std::uint64_t>(id) + 1);
+    for (auto& w : d.words) w = rng();
+    f.descriptors.push_back(d);
+    f.depth.push_back(z);
+    f.points_c.push_back(Vec3((u - cam.cx) / cam.fx * z, (v - cam.cy) / cam.fy * z, z));
+    f.status.push_back(FeatureStatus::kStatic);
+  };
+  for (int i = first_near; i < first_near + near; ++i) {
+    add(i, 20.0 + 24.0 * (i % 12), 20.0 + 24.0 * (i / 12), 2.0);  // the left half
+  }
+  for (int i = 0; i < far; ++i) {
+    add(1000 + i, 340.0 + 24.0 * (i % 12), 20.0 + 24.0 * (i / 12), 8.0);  // the right half
+  }
+  f.build_grid();
+  return f;
+}
+
+// A crowd hides most of what the first keyframe mapped (50 of its 110 points still seen) while
+// 65 features of farther scenery come into view: ORB-SLAM's rules keep the keyframe (50 inliers
+// are not below 0.4 of 110; 65 unmatched "close" features are not over 70), and the track would
+// go on thinning; TrackerOptions::weak_inliers makes a keyframe that maps the far scenery.
+TEST(Tracker, WeakTrackingWithUnmappedSceneryMakesAKeyframe) {
+  const PinholeCamera cam = synthetic_camera();
+  for (const int weak_inliers : {0, 60}) {
+    TrackerOptions o;
+    o.weak_inliers = weak_inliers;
+    o.triangulate = false;
+    Tracker tracker(cam, o);
+    const TrackResult first = tracker.track(still_features(cam, 110, 0), std::nullopt);
+    ASSERT_EQ(first.state, TrackingState::kOk);
+    ASSERT_TRUE(first.new_keyframe);
+    ASSERT_EQ(tracker.map().num_points(), 110u);
+    const TrackResult r = tracker.track(still_features(cam, 50, 65, 60), SE3());
+    ASSERT_EQ(r.state, TrackingState::kOk);
+    EXPECT_EQ(r.inliers, 50);
+    EXPECT_LT(r.T_w_c.translation().norm(), 1e-6);
+    EXPECT_EQ(r.new_keyframe, weak_inliers > 0) << "weak_inliers " << weak_inliers;
+    EXPECT_EQ(tracker.map().num_points(), weak_inliers > 0 ? 175u : 110u);
+  }
+}
+
 TEST(Tracker, KeyframeCullingKeepsARevisitedMapSmallAndConsistent) {
   const PinholeCamera cam = synthetic_camera();
   const test::SyntheticScene scene = test::SyntheticScene::office();
