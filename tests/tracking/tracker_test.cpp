@@ -283,10 +283,8 @@ TEST(Tracker, LongLostWithoutPredictionRestartsAtTheLastPose) {
   for (int i = 0; i < 20; ++i) EXPECT_EQ(never.track(elsewhere).state, TrackingState::kLost);
 }
 
-// Back and forth over the same short path: with culling the map keeps fewer keyframes than
-// were inserted, every culled one is gone from it, and it stays consistent and accurate.
-// Hand-made features of a still camera: `near` features at 2 m (their descriptors `seed` + i),
-// then `far` ones at 8 m with descriptors no near feature has, spread over the image.
+// Hand-made features of a still camera: `near` features at 2 m on the left half (feature i at a
+// place and with a descriptor of its own), then `far` ones at 8 m on the right half.
 FrameFeatures still_features(const PinholeCamera& cam, int near, int far, int first_near = 0) {
   FrameFeatures f;
   f.width = cam.width;
@@ -305,10 +303,10 @@ FrameFeatures still_features(const PinholeCamera& cam, int near, int far, int fi
     f.status.push_back(FeatureStatus::kStatic);
   };
   for (int i = first_near; i < first_near + near; ++i) {
-    add(i, 20.0 + 24.0 * (i % 12), 20.0 + 24.0 * (i / 12), 2.0);  // the left half
+    add(i, 20.0 + 24.0 * (i % 12), 20.0 + 24.0 * (i / 12), 2.0);
   }
   for (int i = 0; i < far; ++i) {
-    add(1000 + i, 340.0 + 24.0 * (i % 12), 20.0 + 24.0 * (i / 12), 8.0);  // the right half
+    add(1000 + i, 340.0 + 24.0 * (i % 12), 20.0 + 24.0 * (i / 12), 8.0);
   }
   f.build_grid();
   return f;
@@ -338,6 +336,8 @@ TEST(Tracker, WeakTrackingWithUnmappedSceneryMakesAKeyframe) {
   }
 }
 
+// Back and forth over the same short path: with culling the map keeps fewer keyframes than
+// were inserted, every culled one is gone from it, and it stays consistent and accurate.
 TEST(Tracker, KeyframeCullingKeepsARevisitedMapSmallAndConsistent) {
   const PinholeCamera cam = synthetic_camera();
   const test::SyntheticScene scene = test::SyntheticScene::office();
