@@ -53,7 +53,8 @@ class RunObserver : public Observer {
     const std::array<std::size_t, 4> removal = {r.removal.dynamic_total, r.removal.dynamic_removed,
                                                 r.removal.static_total, r.removal.static_kept};
     rows_.push_back({r.t, r.state, r.features, r.dynamic_features, r.inliers, r.detections,
-                     r.keyframe, r.latency_ms, r.source, r.imu_chi2, removal});
+                     r.keyframe, r.latency_ms, r.source, r.imu_chi2, removal, r.local_points,
+                     r.visible_points});
     for (KeptFrame& k : strip_) {
       if (!k.frame.color.empty() && k.frame.t == r.t) k.report = r;
     }
@@ -81,16 +82,20 @@ class RunObserver : public Observer {
   void write_frames_csv(const std::string& path) {
     std::lock_guard lock(mutex_);
     std::ofstream out(path);
-    // With ground-truth mover masks, the last four columns say how the filter did on this frame
-    // (features truly on movers and how many it removed, truly static and how many it kept).
+    // With ground-truth mover masks, four columns say how the filter did on this frame (features
+    // truly on movers and how many it removed, truly static and how many it kept). The last two
+    // are the local map's size and its points in view: few in view while static features abound
+    // means the map lacked points where the camera looked; many in view with few inliers, that
+    // they did not match.
     out << "#t [s],state,features,dynamic,inliers,detections,keyframe,latency [ms],pose,imu chi2,"
-           "true dynamic,removed,true static,kept\n";
-    char line[240];
+           "true dynamic,removed,true static,kept,local points,visible points\n";
+    char line[256];
     for (const Row& r : rows_) {
-      std::snprintf(line, sizeof(line), "%.9f,%s,%d,%d,%d,%d,%d,%.2f,%s,%.3g,%zu,%zu,%zu,%zu\n",
-                    to_seconds(r.t), tracking::to_string(r.state), r.features, r.dynamic, r.inliers,
-                    r.detections, r.keyframe ? 1 : 0, r.latency_ms, to_string(r.source), r.imu_chi2,
-                    r.removal[0], r.removal[1], r.removal[2], r.removal[3]);
+      std::snprintf(line, sizeof(line),
+                    "%.9f,%s,%d,%d,%d,%d,%d,%.2f,%s,%.3g,%zu,%zu,%zu,%zu,%d,%d\n", to_seconds(r.t),
+                    tracking::to_string(r.state), r.features, r.dynamic, r.inliers, r.detections,
+                    r.keyframe ? 1 : 0, r.latency_ms, to_string(r.source), r.imu_chi2, r.removal[0],
+                    r.removal[1], r.removal[2], r.removal[3], r.local_points, r.visible_points);
       out << line;
     }
     if (!out) throw Error::at(path, 0, "", "write error");
@@ -108,6 +113,7 @@ class RunObserver : public Observer {
     // dynamic total, removed, static total, kept: a row per frame for the whole run, so not
     // the whole RemovalCounts with its per-reason tables.
     std::array<std::size_t, 4> removal;
+    int local_points, visible_points;
   };
   // The tracking thread reports frames, the feeding thread the ones it drops.
   void advance(const char* state) {

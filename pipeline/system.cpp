@@ -865,6 +865,8 @@ struct System::Impl {
 
     report.state = tr.state;
     report.inliers = tr.inliers;
+    report.local_points = tr.local_points;
+    report.visible_points = tr.visible_points;
     report.keyframe = tr.new_keyframe;
     report.T_w_body = tr.T_w_c * calib.T_body_camera.inverse();
     if (prior && tr.state != tracking::TrackingState::kLost) {

@@ -201,7 +201,9 @@ struct FrameReport {
   int features = 0;
   int dynamic_features = 0;
   int inliers = 0;
-  int detections = 0;  // dynamic-class boxes matched to this frame
+  int local_points = 0;    // the local map tracking matched against (TrackResult)
+  int visible_points = 0;  // of those, in view at the final (lost: predicted) pose
+  int detections = 0;      // dynamic-class boxes matched to this frame
   bool keyframe = false;
   double latency_ms = 0.0;         // frame arrival to pose
   dynamic::RemovalCounts removal;  // against the truth mask, when one is provided

@@ -158,7 +158,8 @@ TrackResult Tracker::track(FrameFeatures f, const std::optional<SE3>& predicted,
             : (predicted ? *predicted : (velocity_ ? last_T_w_c_ * *velocity_ : last_T_w_c_));
     SE3 start = prior_w_c.inverse();
     pts = local_points();
-    m = search_local_map(f, start, pts, options_.search_radius_px, nullptr);
+    // visible: at the predicted pose until a pose is found (what a lost frame reports).
+    m = search_local_map(f, start, pts, options_.search_radius_px, &visible);
     if (m.count < options_.min_matches_prior) {
       m = search_local_map(f, start, pts, 2.0 * options_.search_radius_px, nullptr);
     }
@@ -266,6 +267,8 @@ TrackResult Tracker::track(FrameFeatures f, const std::optional<SE3>& predicted,
   }
   res.matches = m.count;
   res.inliers = ok ? pose.inliers : 0;
+  res.local_points = static_cast<int>(pts.size());
+  res.visible_points = static_cast<int>(visible.size());
   if (!ok && relocalizing && predicted && options_.bridge_after_lost_frames > 0 &&
       lost_frames_ + 1 >= options_.bridge_after_lost_frames) {
     res.times.optimize_ms = optimize_ms;

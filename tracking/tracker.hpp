@@ -158,6 +158,11 @@ struct TrackResult {
   TrackingState state = TrackingState::kInitializing;
   int inliers = 0;
   int matches = 0;
+  // The local map this frame was matched against (its points) and how many of them fell in the
+  // frame at the final pose (lost: at the predicted one): when inliers drop while static
+  // features abound, these say whether the map lacked points where the camera looked.
+  int local_points = 0;
+  int visible_points = 0;
   bool new_keyframe = false;
   bool bridged = false;  // lost, restarted at the predicted pose (TrackerOptions)
   // Lost, no prediction, restarted at the last pose: a jump (TrackerOptions).

@@ -1,0 +1,68 @@
+// frames.csv, the per-frame record of a run: one row per reported frame, every column the header
+// names, and the local map's size and points in view beside the inliers they bound.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "pipeline/run_job.hpp"
+#include "sim/live_source.hpp"
+#include "sim/scenario.hpp"
+#include "tests/test_paths.hpp"
+
+namespace kestrel::pipeline {
+namespace {
+
+std::vector<std::string> split(const std::string& line) {
+  std::vector<std::string> out;
+  std::stringstream ss(line);
+  for (std::string cell; std::getline(ss, cell, ',');) out.push_back(cell);
+  return out;
+}
+
+TEST(FramesCsv, EveryTrackedRowHasItsLocalMapAndThePointsInView) {
+  sim::ScenarioOverrides over;
+  over.duration = 1.0;
+  sim::LiveSource source(sim::load_scenario("office-static", over));
+  RunOptions opt;
+  opt.detector = "none";
+  opt.progress = false;
+  opt.strip_frames = 0;
+  opt.loop_closing = false;
+  opt.out_dir = test::temp_dir("frames-csv").string();
+  const RunSummary s = run_sequence(source, opt);
+
+  std::ifstream in(opt.out_dir + "/frames.csv");
+  ASSERT_TRUE(in) << opt.out_dir;
+  std::string line;
+  ASSERT_TRUE(std::getline(in, line));
+  const std::vector<std::string> header = split(line);
+  ASSERT_EQ(header.size(), 16u) << line;
+  EXPECT_EQ(header[4], "inliers");
+  EXPECT_EQ(header[14], "local points");
+  EXPECT_EQ(header[15], "visible points");
+
+  std::size_t rows = 0, tracked = 0;
+  while (std::getline(in, line)) {
+    const std::vector<std::string> c = split(line);
+    ASSERT_EQ(c.size(), header.size()) << line;
+    ++rows;
+    if (rows == 1 || c[1] != "ok") continue;  // the first frame starts the map
+    ++tracked;
+    const int inliers = std::stoi(c[4]), local = std::stoi(c[14]), visible = std::stoi(c[15]);
+    EXPECT_GT(inliers, 0) << line;
+    EXPECT_GE(local, visible) << line;
+    EXPECT_GE(local, inliers) << line;
+    // office-static at rest in a textured room: most of the local map is in view.
+    EXPECT_GE(visible, inliers / 2) << line;
+  }
+  EXPECT_EQ(rows, s.frames);
+  EXPECT_GE(tracked, s.frames - 2);
+  std::filesystem::remove_all(opt.out_dir);
+}
+
+}  // namespace
+}  // namespace kestrel::pipeline
