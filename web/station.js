@@ -20,8 +20,12 @@ const pingPeriodMs = Math.max(20, Number(params.get('ping_ms')) || kPingPeriodMs
 // ?jitter_ms=N asks Chromium's video jitter buffer to hold about N ms (RTCRtpReceiver
 // jitterBufferTarget; unset: Chromium's own estimate), for glass-to-glass experiments.
 const jitterTargetMs = params.has('jitter_ms') ? Math.max(0, Number(params.get('jitter_ms')) || 0) : null;
-const kVideoRetryMs = 4000;   // no picture this long after a hello: start over
-const kVideoStallMs = 3000;   // no new frame this long while playing: start over
+// ?video_retry_ms=N and ?video_stall_ms=N lengthen the two waits below for a slow agent or link
+// (a sanitizer build's agent encodes about one frame a second; restarting its peer sooner only
+// gives it another one to set up).
+const msParam = (name, dflt) => Math.max(dflt, Number(params.get(name)) || dflt);
+const kVideoRetryMs = msParam('video_retry_ms', 4000);  // no picture this long after a hello: start over
+const kVideoStallMs = msParam('video_stall_ms', 3000);  // no new frame this long while playing: start over
 const kVideoAliveMs = 2000;   // the agent drops viewers it has not heard from in 8 s
 const kLatencyKept = 3000;
 
