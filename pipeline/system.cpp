@@ -109,6 +109,10 @@ InertialPriorSigmas inertial_prior_sigmas(const SystemOptions& options, double s
           options.inertial_prior_translation_sigma + 0.05 * h + 0.5 * h * h};
 }
 
+double inertial_prior_age(double since_fix_s, double since_bridge_s) {
+  return since_bridge_s >= 0.0 ? std::min(since_fix_s, since_bridge_s) : since_fix_s;
+}
+
 struct System::Impl {
   Calibration calib;
   SystemOptions options;
@@ -211,7 +215,8 @@ struct System::Impl {
   Vec3 gravity_sum = Vec3::Zero();
   int gravity_samples = 0;
   imu::InertialPredictor predictor;
-  Timestamp imu_fed_until = 0;  // predictor has the IMU up to here
+  Timestamp imu_fed_until = 0;   // predictor has the IMU up to here
+  Timestamp last_bridge_t = -1;  // the latest bridge (TrackResult::bridged, not a restart)
   std::size_t inertial_frames = 0;
   std::size_t depth_frames = 0;         // lost to features, carried by depth and the IMU
   std::size_t depth_carry_refused = 0;  // alignments that moved the IMU's motion too far
@@ -346,7 +351,10 @@ struct System::Impl {
     const auto p = predictor.predict(t);
     if (!p) return std::nullopt;
     predicted_v_w = p->v_w;
-    const InertialPriorSigmas sigmas = inertial_prior_sigmas(options, p->since_fix_s);
+    const double since_bridge =
+        last_bridge_t >= 0 && t >= last_bridge_t ? to_seconds(t - last_bridge_t) : -1.0;
+    const InertialPriorSigmas sigmas =
+        inertial_prior_sigmas(options, inertial_prior_age(p->since_fix_s, since_bridge));
     tracking::MotionPrior prior;
     prior.T_w_c = p->T_w_b * calib.T_body_camera;
     prior.rotation_sigma = sigmas.rotation_rad;
@@ -818,6 +826,7 @@ struct System::Impl {
             ? tracker.track(std::move(features), *prior, &keep)
             : tracker.track(std::move(features), predicted, &keep);
     stats.record("tracking", ms_since(t0));
+    if (tr.bridged && !tr.restarted) last_bridge_t = frame.t;
     if (tr.new_keyframe && tr.bridged) {
       restart_keyframes[tr.keyframe_id] = predicted.has_value() || attitude.has_value();
     }

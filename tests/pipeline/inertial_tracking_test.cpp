@@ -114,6 +114,22 @@ double position_error(const BlackoutRun& r, std::size_t i) {
   return std::numeric_limits<double>::infinity();
 }
 
+// The prior's sigmas grow with how long the IMU carried the pose alone; a bridge (the local map
+// restarted at the IMU's own pose) restarts that clock, so vision on the bridged map must agree
+// with the IMU to what it drifted since: uav-zigzag's take-off, 0.27 s after the last fix and
+// one frame after a bridge.
+TEST(InertialTracking, ABridgeRestartsThePriorsClock) {
+  EXPECT_DOUBLE_EQ(inertial_prior_age(0.27, -1.0), 0.27);  // no bridge
+  EXPECT_DOUBLE_EQ(inertial_prior_age(0.27, 0.033), 0.033);
+  EXPECT_DOUBLE_EQ(inertial_prior_age(0.1, 0.5), 0.1);  // a fix after the bridge
+  const SystemOptions opt;
+  const double from_fix = inertial_prior_sigmas(opt, inertial_prior_age(0.27, -1.0)).translation_m;
+  const double from_bridge =
+      inertial_prior_sigmas(opt, inertial_prior_age(0.27, 0.033)).translation_m;
+  EXPECT_GT(from_fix, 0.05);     // a 0.12 m error passes a 4-sigma look
+  EXPECT_LT(from_bridge, 0.01);  // ... and fails this one
+}
+
 TEST(InertialTracking, ImuCarriesThePoseThroughABlackoutAndTheTrackResumes) {
   const BlackoutRun r = run_blackout(true);
   ASSERT_EQ(r.reports.size(), 76u);
