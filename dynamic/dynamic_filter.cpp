@@ -11,7 +11,6 @@
 #include <unordered_map>
 
 #include "core/camera.hpp"
-#include "core/grey_levels.hpp"
 #include "core/reprojection.hpp"
 #include "core/se3.hpp"
 
@@ -246,14 +245,53 @@ FlowPyramid build_flow_pyramid(const Image& gray, const DynamicFilterOptions& op
   return FlowPyramid{std::move(lv)};
 }
 
-int flow_window(const Image& cur_gray, const DynamicFilterOptions& opt) {
+double weakest_gradient(const Image& gray, double x, double y, int window) {
+  if (gray.empty() || gray.channels != 1 || gray.type != PixelType::kU8) {
+    throw std::invalid_argument("weakest_gradient: an 8-bit grey image is required");
+  }
+  const int half = std::max(window, 1) / 2;
+  const int u0 = static_cast<int>(std::lround(x)), v0 = static_cast<int>(std::lround(y));
+  // Scharr's kernel over interior pixels, divided by its weight (32): grey levels per pixel.
+  const int u_lo = std::max(1, u0 - half), u_hi = std::min(gray.width - 2, u0 + half);
+  const int v_lo = std::max(1, v0 - half), v_hi = std::min(gray.height - 2, v0 + half);
+  std::int64_t s11 = 0, s12 = 0, s22 = 0;
+  int count = 0;
+  for (int v = v_lo; v <= v_hi; ++v) {
+    const std::uint8_t* up = gray.row<std::uint8_t>(v - 1);
+    const std::uint8_t* mid = gray.row<std::uint8_t>(v);
+    const std::uint8_t* down = gray.row<std::uint8_t>(v + 1);
+    for (int u = u_lo; u <= u_hi; ++u) {
+      const int gx = 3 * (up[u + 1] - up[u - 1]) + 10 * (mid[u + 1] - mid[u - 1]) +
+                     3 * (down[u + 1] - down[u - 1]);
+      const int gy =
+          3 * (down[u - 1] - up[u - 1]) + 10 * (down[u] - up[u]) + 3 * (down[u + 1] - up[u + 1]);
+      s11 += gx * gx;
+      s12 += gx * gy;
+      s22 += gy * gy;
+      ++count;
+    }
+  }
+  if (count == 0) return 0.0;
+  const double norm = 1.0 / (32.0 * 32.0 * count);
+  const double a11 = static_cast<double>(s11) * norm, a12 = static_cast<double>(s12) * norm,
+               a22 = static_cast<double>(s22) * norm;
+  const double lmin = 0.5 * (a11 + a22 - std::sqrt((a11 - a22) * (a11 - a22) + 4.0 * a12 * a12));
+  return std::sqrt(std::max(lmin, 0.0));
+}
+
+std::vector<int> flow_windows(const Image& cur_gray, const std::vector<Vec2>& points,
+                              const DynamicFilterOptions& opt) {
+  std::vector<int> out(points.size(), opt.lk_window);
   if (opt.lk_window_dim <= 0 || cur_gray.empty() || cur_gray.channels != 1 ||
       cur_gray.type != PixelType::kU8) {
-    return opt.lk_window;
+    return out;
   }
-  const GreyRange r =
-      grey_range(cur_gray.data->data(), cur_gray.width, cur_gray.height, cur_gray.step(), 4);
-  return r.spread() <= opt.dim_spread ? opt.lk_window_dim : opt.lk_window;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    if (weakest_gradient(cur_gray, points[i].x(), points[i].y(), opt.lk_window) < opt.dim_texture) {
+      out[i] = opt.lk_window_dim;
+    }
+  }
+  return out;
 }
 
 const char* to_string(LabelReason r) {
@@ -340,7 +378,8 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
   if (n == 0 || opt.mode == FilterMode::kOff) return out;
 
   const bool use_boxes = opt.mode != FilterMode::kGeometryOnly;
-  const int window = in.cur_gray ? flow_window(*in.cur_gray, opt) : opt.lk_window;
+  const std::vector<int> windows =
+      in.cur_gray ? flow_windows(*in.cur_gray, in.points, opt) : std::vector<int>(n, opt.lk_window);
   const bool use_geometry = opt.mode != FilterMode::kDetectionOnly;
 
   // Which boxes hold each feature (a feature may sit in two overlapping boxes).
@@ -399,8 +438,8 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
         }
       }
       if (!depth_image || !opt.outline_by_depth) continue;
-      const int r = std::max(1, window / 2);
       for (std::size_t i = 0; i < n; ++i) {
+        const int r = std::max(1, windows[i] / 2);
         if (foreground[i] || outline[i] ||
             std::find(boxes_of[i].begin(), boxes_of[i].end(), static_cast<int>(b)) ==
                 boxes_of[i].end()) {
@@ -469,8 +508,6 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
     }
     flags = cv::OPTFLOW_USE_INITIAL_FLOW;
   }
-  std::vector<unsigned char> st1, st2;
-  const cv::Size win(window, window);
   const cv::TermCriteria term(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, opt.lk_iterations,
                               opt.lk_epsilon_px);
   // Flow on the pyramid from lk_base_level up, in that level's pixels (OpenCV's convention:
@@ -484,15 +521,45 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
     lk_cur[i] = pts_cur[i] / scale;
     lk_prev[i] = pts_prev[i] / scale;
   }
-  std::vector<float> lk_err;  // the patches' mean error, for ego_flow_retry only
-  const cv::_OutputArray err_out =
-      opt.ego_flow_retry ? cv::_OutputArray(lk_err) : cv::_OutputArray(cv::noArray());
-  cv::calcOpticalFlowPyrLK(cur_levels, prev_levels, lk_cur, lk_prev, st1, err_out, win, levels,
-                           term, flags, opt.lk_min_eigen);
+  std::vector<float> lk_err(opt.ego_flow_retry ? n : 0);  // the patches' mean error, for the retry
+  std::vector<unsigned char> st1(n, 0), st2(n, 0);
   pts_back = lk_cur;
-  cv::calcOpticalFlowPyrLK(prev_levels, cur_levels, lk_prev, pts_back, st2, cv::noArray(), win,
-                           std::min(opt.lk_backward_levels, levels), term,
-                           cv::OPTFLOW_USE_INITIAL_FLOW);
+  // One forward and one backward call per window size, each over the features that take it.
+  std::vector<std::size_t> group;
+  std::vector<cv::Point2f> g_cur, g_prev, g_back;
+  std::vector<unsigned char> g_st1, g_st2;
+  std::vector<float> g_err;
+  for (const int window : {opt.lk_window, opt.lk_window_dim}) {
+    group.clear();
+    for (std::size_t i = 0; i < n; ++i) {
+      if (windows[i] == window) group.push_back(i);
+    }
+    if (group.empty()) continue;
+    g_cur.resize(group.size());
+    g_prev.resize(group.size());
+    for (std::size_t k = 0; k < group.size(); ++k) {
+      g_cur[k] = lk_cur[group[k]];
+      g_prev[k] = lk_prev[group[k]];
+    }
+    const cv::Size win(window, window);
+    const cv::_OutputArray err_out =
+        opt.ego_flow_retry ? cv::_OutputArray(g_err) : cv::_OutputArray(cv::noArray());
+    cv::calcOpticalFlowPyrLK(cur_levels, prev_levels, g_cur, g_prev, g_st1, err_out, win, levels,
+                             term, flags, opt.lk_min_eigen);
+    g_back = g_cur;
+    cv::calcOpticalFlowPyrLK(prev_levels, cur_levels, g_prev, g_back, g_st2, cv::noArray(), win,
+                             std::min(opt.lk_backward_levels, levels), term,
+                             cv::OPTFLOW_USE_INITIAL_FLOW);
+    for (std::size_t k = 0; k < group.size(); ++k) {
+      const std::size_t i = group[k];
+      lk_prev[i] = g_prev[k];
+      pts_back[i] = g_back[k];
+      st1[i] = g_st1[k];
+      st2[i] = g_st2[k];
+      if (opt.ego_flow_retry) lk_err[i] = g_err[k];
+    }
+    if (opt.lk_window_dim == opt.lk_window) break;
+  }
   for (std::size_t i = 0; i < n; ++i) {
     pts_prev[i] = lk_prev[i] * scale;
     pts_back[i] *= scale;
@@ -869,13 +936,39 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
     }
     if (!retry.empty()) {
       std::vector<cv::Point2f> predicted = to_prev, back = from_cur;
-      std::vector<unsigned char> st_f, st_b;
-      std::vector<float> err;
+      std::vector<unsigned char> st_f(retry.size(), 0), st_b(retry.size(), 0);
+      std::vector<float> err(retry.size(), 0.0f);
       const int retry_levels = std::min(levels, 1);
-      cv::calcOpticalFlowPyrLK(cur_levels, prev_levels, from_cur, to_prev, st_f, err, win,
-                               retry_levels, term, cv::OPTFLOW_USE_INITIAL_FLOW, opt.lk_min_eigen);
-      cv::calcOpticalFlowPyrLK(prev_levels, cur_levels, to_prev, back, st_b, cv::noArray(), win,
-                               retry_levels, term, cv::OPTFLOW_USE_INITIAL_FLOW);
+      // Each feature with its own window, so that its error compares with its first flow's.
+      for (const int window : {opt.lk_window, opt.lk_window_dim}) {
+        std::vector<std::size_t> ks;
+        for (std::size_t k = 0; k < retry.size(); ++k) {
+          if (windows[retry[k]] == window) ks.push_back(k);
+        }
+        if (ks.empty()) continue;
+        std::vector<cv::Point2f> r_cur(ks.size()), r_prev(ks.size()), r_back;
+        for (std::size_t j = 0; j < ks.size(); ++j) {
+          r_cur[j] = from_cur[ks[j]];
+          r_prev[j] = to_prev[ks[j]];
+        }
+        r_back = r_cur;
+        std::vector<unsigned char> r_st_f, r_st_b;
+        std::vector<float> r_err;
+        const cv::Size win(window, window);
+        cv::calcOpticalFlowPyrLK(cur_levels, prev_levels, r_cur, r_prev, r_st_f, r_err, win,
+                                 retry_levels, term, cv::OPTFLOW_USE_INITIAL_FLOW,
+                                 opt.lk_min_eigen);
+        cv::calcOpticalFlowPyrLK(prev_levels, cur_levels, r_prev, r_back, r_st_b, cv::noArray(),
+                                 win, retry_levels, term, cv::OPTFLOW_USE_INITIAL_FLOW);
+        for (std::size_t j = 0; j < ks.size(); ++j) {
+          to_prev[ks[j]] = r_prev[j];
+          back[ks[j]] = r_back[j];
+          st_f[ks[j]] = r_st_f[j];
+          st_b[ks[j]] = r_st_b[j];
+          err[ks[j]] = r_err[j];
+        }
+        if (opt.lk_window_dim == opt.lk_window) break;
+      }
       for (std::size_t k = 0; k < retry.size(); ++k) {
         const std::size_t i = retry[k];
         const cv::Point2f fb = back[k] * scale - pts_cur[i];

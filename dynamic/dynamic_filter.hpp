@@ -111,13 +111,28 @@ struct DynamicFilterOptions {
   // keeps the full pyramid: with fewer levels it starts at the feature and confirms wrong forward
   // tracks it should reject.
   int lk_window = 9;
-  // ... but on a dim, low-contrast frame (its 1st..99th percentile grey levels at most
-  // dim_spread apart: the extractor's dim images, FeatureExtractorOptions::dim_min_gain) the
-  // sensor noise is large against the texture, and the 9 px window's flow flags static features
-  // (corridor-dark: static kept 95.1 -> 93.2%, 18 -> 31 frames lost): the 15 px window there.
-  // 0: lk_window always.
+  // ... but a feature whose own patch is faint (the gradient along its weakest direction over
+  // the lk_window patch, RMS, below dim_texture grey levels per pixel: a few times the sensor's
+  // noise) takes the 15 px window: there the noise is large against the texture and the 9 px
+  // window's flow flags static features (corridor-dark: static kept 95.1 -> 93.2%, 18 -> 31
+  // frames lost). 0: lk_window always.
+  // Against the simulator's true flow (sensor depth, true poses) on corridor-dark and the bench's
+  // cafe, market and uav-zigzag renders, the share of static features whose 9 px flow was wrong
+  // or refused while the 15 px one was right: 20-33% below 4 grey levels per pixel, 3-10% at
+  // 4-6, 1-4% above 6. Judged per frame instead (the grey levels' 1st..99th percentile spread
+  // at most 141 apart), every feature of 22% of cafe's frames, 48% of market's and 63% of
+  // uav-zigzag's took the wide window, at 2.8 times the flow's cost. Per feature instead, on
+  // the bench's 12 s (pipeline::evaluate_dynamic_filter, hybrid with YOLO, removed / kept):
+  // cafe 89.46 / 90.33 -> 89.52 / 90.38%, market 79.82 / 94.32 -> 79.83 / 94.36%, uav-zigzag
+  // 61.74 / 91.55 -> 61.73 / 91.62%; filter ms per frame p50 / p90 4.2 / 11.2 -> 4.6 / 5.2,
+  // 7.1 / 16.0 -> 5.5 / 7.8, 10.6 / 15.6 -> 8.5 / 14.7 (the texture costs 0.2 ms per 1000
+  // features). 60 s runs (lost frames, APE m): cafe seeds 1-3 0, 0.0036 / 0.0140 / 0.0049 ->
+  // 0, 0.0042 / 0.0139 / 0.0044; market 0, 0.078 -> 0, 0.082; 15, 0.051 -> 23, 0.053; 0, 0.058
+  // -> 1, 0.042; uav-zigzag 14, 0.171 -> 12, 0.158; 12, 0.098 -> 12, 0.091; 19, 0.065 -> 19,
+  // 0.053; corridor-dark (every frame dim before) 25, 0.096 -> 6, 0.100; 4, 0.058 -> 7, 0.094;
+  // 45, 0.053 -> 44, 0.064. Lost frames over the twelve 134 -> 124.
   int lk_window_dim = 15;
-  int dim_spread = 141;
+  double dim_texture = 6.0;
   int lk_base_level = 0;  // pyramid level the flow ends on (0: full resolution)
   int lk_levels = 3;      // above lk_base_level
   int lk_iterations = 20;
@@ -272,8 +287,15 @@ struct DynamicFilterResult {
 DynamicFilterResult classify_features(const DynamicFilterInput& in,
                                       const DynamicFilterOptions& opt);
 
-// The LK window classify_features uses on `cur_gray`: lk_window, or lk_window_dim on a dim frame.
-int flow_window(const Image& cur_gray, const DynamicFilterOptions& opt);
+// The RMS gradient along the weakest direction (the structure tensor's smaller eigenvalue's
+// root, Scharr's kernel, grey levels per pixel) over the window x window patch at (x, y) of an
+// 8-bit grey image: how well the patch pins a flow down.
+double weakest_gradient(const Image& gray, double x, double y, int window);
+
+// The LK window classify_features uses for each point of `cur_gray`: lk_window, or
+// lk_window_dim where the point's patch is faint (DynamicFilterOptions::dim_texture).
+std::vector<int> flow_windows(const Image& cur_gray, const std::vector<Vec2>& points,
+                              const DynamicFilterOptions& opt);
 
 // The flow on the half-resolution image (DynamicFilterOptions, lk_window): 9 px window on
 // level 1, 2 levels above it, 10 iterations to 0.1 px. A quarter of the seed flow's cost.

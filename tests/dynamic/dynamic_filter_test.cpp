@@ -122,21 +122,39 @@ BoxRegion mover_box(const Scene& s) {
                    static_cast<float>(r.x + r.width), static_cast<float>(r.y + r.height)};
 }
 
-// A dim frame (sensor noise large against its texture) takes the wider window; one pyramid,
-// padded for both windows, serves either frame, so a cached previous pyramid stays valid.
-TEST(DynamicFilter, DimFrameTakesTheWiderFlowWindow) {
+// A faint patch (sensor noise large against its texture) takes the wider window, a textured
+// one the narrow window; one pyramid, padded for both windows, serves every feature, so a cached
+// previous pyramid stays valid.
+TEST(DynamicFilter, FaintPatchesTakeTheWiderFlowWindow) {
   const Scene s = make_scene({0.02, 0, 0}, {0, -0.05, 0});
   cv::Mat dim_prev, dim_cur;
   s.prev.convertTo(dim_prev, CV_8U, 0.35, 12.0);
   s.cur.convertTo(dim_cur, CV_8U, 0.35, 12.0);
   const Image bright = to_image(s.cur), dim = to_image(dim_cur), dim_before = to_image(dim_prev);
   const DynamicFilterOptions opt;
-  EXPECT_EQ(flow_window(bright, opt), opt.lk_window);
-  EXPECT_EQ(flow_window(dim, opt), opt.lk_window_dim);
   EXPECT_GT(opt.lk_window_dim, opt.lk_window);
+
+  // A flat square with one bright quadrant: the corner pins the flow, the flat part does not.
+  cv::Mat corner(64, 64, CV_8U, cv::Scalar(40));
+  corner(cv::Rect(32, 32, 32, 32)).setTo(200);
+  const Image c = to_image(corner);
+  EXPECT_GT(weakest_gradient(c, 32, 32, opt.lk_window), 20.0);
+  EXPECT_EQ(weakest_gradient(c, 10, 10, opt.lk_window), 0.0);
+  // Along the edge, away from the corner, the gradient has one direction only.
+  EXPECT_LT(weakest_gradient(c, 48, 32, opt.lk_window), 1e-9);
+  const std::vector<int> w_corner = flow_windows(c, {Vec2(32, 32), Vec2(10, 10)}, opt);
+  EXPECT_EQ(w_corner, (std::vector<int>{opt.lk_window, opt.lk_window_dim}));
+
+  // The same points take the wide window more often on the dimmed picture.
+  auto wide_share = [&](const Image& im, const DynamicFilterOptions& o) {
+    const std::vector<int> w = flow_windows(im, s.points, o);
+    return std::count(w.begin(), w.end(), o.lk_window_dim) / static_cast<double>(w.size());
+  };
+  EXPECT_LT(wide_share(bright, opt), 0.3);
+  EXPECT_GT(wide_share(dim, opt), wide_share(bright, opt) + 0.2);
   DynamicFilterOptions one_window;
   one_window.lk_window_dim = 0;
-  EXPECT_EQ(flow_window(dim, one_window), opt.lk_window);
+  for (const int w : flow_windows(dim, s.points, one_window)) EXPECT_EQ(w, opt.lk_window);
 
   DynamicFilterInput in = input_for(s, dim_before, dim);
   in.boxes = {mover_box(s)};
@@ -443,6 +461,9 @@ TEST(DynamicFilter, IncoherentFlowIsUnknownWhileACoherentMoverIsRemoved) {
   DynamicFilterOptions geo;
   geo.mode = FilterMode::kGeometryOnly;
   geo.coherent_neighbours = 2;
+  // The patches' centres are arbitrary points of the photo, some of them faint; one window for
+  // all, so that what is judged is the flows' coherence, not which window a centre took.
+  geo.lk_window_dim = 0;
   // The retry from the ego-motion's prediction must find these flows unambiguous: each patch
   // matches only where it went.
   geo.ego_flow_retry = true;
