@@ -612,38 +612,61 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
     }
     if (obj.size() >= 15) {
       cv::Mat rvec, tvec;
-      std::vector<int> inliers;
-      bool solved = cv::solvePnPRansac(obj, img, cv::Mat(Kcv), cv::noArray(), rvec, tvec, false,
-                                       100, kPnpInlierPx, 0.99, inliers, cv::SOLVEPNP_EPNP) &&
-                    inliers.size() >= 10;
-      // RANSAC's estimate comes from EPnP on its consensus: refine it by Levenberg-Marquardt on
-      // the reprojection error of the points it explains, twice, so that its small rotation and
-      // translation errors do not grow into a tail of static residuals.
-      if (solved) refine_motion(obj, img, Kcv, kPnpInlierPx, rvec, tvec);
-      if (in.R_cur_prev && in.t_cur_prev) {
+      bool solved = false;
+      const bool prior = in.R_cur_prev && in.t_cur_prev;
+      cv::Mat r_prior, t_prior;
+      double gate_r = 0.0, gate_t = 0.0;
+      if (prior) {
         // The prediction, as PnP's unknown: the current camera into the previous one.
         const Mat3 R_pc = in.R_cur_prev->transpose();
         const Vec3 t_pc = -(R_pc * *in.t_cur_prev);
-        cv::Mat r_prior, t_prior = (cv::Mat_<double>(3, 1) << t_pc.x(), t_pc.y(), t_pc.z());
+        t_prior = (cv::Mat_<double>(3, 1) << t_pc.x(), t_pc.y(), t_pc.z());
         cv::Rodrigues(cv::Mat(to_matx(R_pc)), r_prior);
-        const double gate_r = opt.prior_gate_sigmas * in.prior_rotation_sigma_rad;
-        const double gate_t = std::max(opt.prior_min_translation_m,
-                                       opt.prior_gate_sigmas * in.prior_translation_sigma_m);
-        if (!solved || !motion_agrees(rvec, tvec, r_prior, t_prior, gate_r, gate_t)) {
-          // RANSAC found another consensus than the predicted motion (or none): the points the
-          // prediction explains are the world, if there are enough of them.
-          cv::Mat rp = r_prior.clone(), tp = t_prior.clone();
-          const int explained = refine_motion(obj, img, Kcv, opt.prior_inlier_px, rp, tp);
-          if (explained >= 10 || opt.prior_without_support) {
-            if (explained < 10 || !motion_agrees(rp, tp, r_prior, t_prior, gate_r, gate_t)) {
-              rp = r_prior;  // the refinement slid off to the other consensus
-              tp = t_prior;
-            }
-            rvec = rp;
-            tvec = tp;
-            solved = true;
-            out.motion_from_prior = true;
+        gate_r = opt.prior_gate_sigmas * in.prior_rotation_sigma_rad;
+        gate_t = std::max(opt.prior_min_translation_m,
+                          opt.prior_gate_sigmas * in.prior_translation_sigma_m);
+      }
+      // The prediction refined on the points it explains, if enough of them: the motion below
+      // takes it whatever consensus RANSAC would find (its own when they agree, the
+      // prediction's when not), so RANSAC runs only where the prediction has no support.
+      // How many points it explains; negative where the refinement slid off the prediction.
+      const auto from_prior = [&](cv::Mat& rp, cv::Mat& tp) {
+        rp = r_prior.clone();
+        tp = t_prior.clone();
+        const int explained = refine_motion(obj, img, Kcv, opt.prior_inlier_px, rp, tp);
+        return explained >= 10 && !motion_agrees(rp, tp, r_prior, t_prior, gate_r, gate_t)
+                   ? -explained
+                   : explained;
+      };
+      if (prior && opt.prior_first && from_prior(rvec, tvec) >= 10) {
+        solved = true;
+        out.motion_from_prior = true;
+      }
+      if (!solved) {
+        std::vector<int> inliers;
+        solved = cv::solvePnPRansac(obj, img, cv::Mat(Kcv), cv::noArray(), rvec, tvec, false, 100,
+                                    kPnpInlierPx, 0.99, inliers, cv::SOLVEPNP_EPNP) &&
+                 inliers.size() >= 10;
+        // RANSAC's estimate comes from EPnP on its consensus: refine it by Levenberg-Marquardt
+        // on the reprojection error of the points it explains, twice, so that its small
+        // rotation and translation errors do not grow into a tail of static residuals.
+        if (solved) refine_motion(obj, img, Kcv, kPnpInlierPx, rvec, tvec);
+      }
+      if (prior && !out.motion_from_prior &&
+          (!solved || !motion_agrees(rvec, tvec, r_prior, t_prior, gate_r, gate_t))) {
+        // RANSAC found another consensus than the predicted motion (or none): the points the
+        // prediction explains are the world, if there are enough of them.
+        cv::Mat rp, tp;
+        const int explained = from_prior(rp, tp);
+        if (std::abs(explained) >= 10 || opt.prior_without_support) {
+          if (explained < 10) {
+            rp = r_prior;  // too few points, or the refinement slid off to the other consensus
+            tp = t_prior;
           }
+          rvec = rp;
+          tvec = tp;
+          solved = true;
+          out.motion_from_prior = true;
         }
       }
       if (solved) {

@@ -354,7 +354,8 @@ TEST(DynamicFilter, MotionPriorPicksTheWorldOverACrowdMovingWithTheCamera) {
   EXPECT_GE(g.removed, 90.0);
   EXPECT_GE(g.kept, 90.0);
 
-  // A prediction that agrees with RANSAC changes nothing.
+  // A prediction that agrees with RANSAC changes nothing: refined on the points it explains it
+  // is RANSAC's motion (without RANSAC run: prior_first), and with RANSAC first it is kept.
   const Scene plain = make_scene({0.02, 0, 0}, {0, -0.05, 0});
   const Image p2 = to_image(plain.prev), c2 = to_image(plain.cur);
   DynamicFilterInput in2 = input_for(plain, p2, c2);
@@ -363,8 +364,13 @@ TEST(DynamicFilter, MotionPriorPicksTheWorldOverACrowdMovingWithTheCamera) {
   const DynamicFilterResult a = classify_features(in2, geo);
   in2.t_cur_prev = Vec3(-0.02, 0, 0);
   const DynamicFilterResult b = classify_features(in2, geo);
-  EXPECT_FALSE(b.motion_from_prior);
+  EXPECT_TRUE(b.motion_from_prior);
   EXPECT_EQ(a.labels, b.labels);
+  DynamicFilterOptions ransac_first = geo;
+  ransac_first.prior_first = false;
+  const DynamicFilterResult c = classify_features(in2, ransac_first);
+  EXPECT_FALSE(c.motion_from_prior);
+  EXPECT_EQ(a.labels, c.labels);
 }
 
 // A mover filling the whole view (a car under a drone, unseen by the detector) moves with the
