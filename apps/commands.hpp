@@ -16,5 +16,6 @@ int& exit_code();
 
 }  // namespace kestrel::apps
 
-#define KESTREL_COMMAND(order, setup) \
-  static const bool kestrel_command_registered_##setup = ::kestrel::apps::register_command(order, setup)
+#define KESTREL_COMMAND(order, setup)                    \
+  static const bool kestrel_command_registered_##setup = \
+      ::kestrel::apps::register_command(order, setup)

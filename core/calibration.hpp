@@ -10,13 +10,13 @@ namespace kestrel {
 
 // The sensor setup of one agent: what a dataset's calibration files or a settings file say.
 struct Calibration {
-  PinholeCamera camera;                  // colour / left camera
-  std::optional<PinholeCamera> right;    // stereo only
-  SE3 T_left_right;                      // stereo only: right camera into left camera
-  SE3 T_body_camera;                     // camera into body (IMU) frame; ORB-SLAM3's Tbc
+  PinholeCamera camera;                // colour / left camera
+  std::optional<PinholeCamera> right;  // stereo only
+  SE3 T_left_right;                    // stereo only: right camera into left camera
+  SE3 T_body_camera;                   // camera into body (IMU) frame; ORB-SLAM3's Tbc
   bool has_imu = false;
   ImuNoise imu;
-  double depth_scale = 5000.0;           // raw depth units per metre (TUM: 5000)
+  double depth_scale = 5000.0;  // raw depth units per metre (TUM: 5000)
   double fps = 30.0;
 
   bool is_stereo() const { return right.has_value(); }

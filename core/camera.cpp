@@ -6,17 +6,20 @@ namespace kestrel {
 
 std::string to_string(DistortionModel m) {
   switch (m) {
-    case DistortionModel::kNone: return "none";
-    case DistortionModel::kRadTan: return "radtan";
-    case DistortionModel::kEquidistant: return "equidistant";
+    case DistortionModel::kNone:
+      return "none";
+    case DistortionModel::kRadTan:
+      return "radtan";
+    case DistortionModel::kEquidistant:
+      return "equidistant";
   }
   return "none";
 }
 
 std::optional<DistortionModel> distortion_model_from_string(const std::string& name) {
   if (name == "none" || name.empty()) return DistortionModel::kNone;
-  if (name == "radtan" || name == "radial-tangential" || name == "plumb_bob" ||
-      name == "PinHole" || name == "pinhole") {
+  if (name == "radtan" || name == "radial-tangential" || name == "plumb_bob" || name == "PinHole" ||
+      name == "pinhole") {
     return DistortionModel::kRadTan;
   }
   if (name == "equidistant" || name == "equi" || name == "KannalaBrandt8" || name == "fisheye") {
@@ -29,7 +32,8 @@ Vec2 PinholeCamera::distort(const Vec2& xn) const {
   const double x = xn.x();
   const double y = xn.y();
   switch (model) {
-    case DistortionModel::kNone: return xn;
+    case DistortionModel::kNone:
+      return xn;
     case DistortionModel::kRadTan: {
       const double r2 = x * x + y * y;
       const double radial = 1.0 + r2 * (dist[0] + r2 * (dist[1] + r2 * dist[4]));

@@ -11,8 +11,8 @@ namespace kestrel {
 // Colour (or grey) image with depth registered to it. Depth is 16-bit, metres = value / scale.
 struct RgbdFrame {
   Timestamp t = 0;
-  Image color;   // 8-bit, 1 or 3 channels (BGR order, as OpenCV decodes)
-  Image depth;   // 16-bit, 1 channel; empty for a monocular stream
+  Image color;  // 8-bit, 1 or 3 channels (BGR order, as OpenCV decodes)
+  Image depth;  // 16-bit, 1 channel; empty for a monocular stream
   double depth_scale = 5000.0;
   std::string source;  // the file it came from, for error messages and reports
 };

@@ -83,9 +83,7 @@ class SE3 {
   SE3 operator*(const SE3& o) const { return SE3(R_ * o.R_, R_ * o.t_ + t_); }
   Vec3 operator*(const Vec3& p) const { return R_ * p + t_; }
 
-  bool is_finite() const {
-    return t_.allFinite() && R_.quaternion().coeffs().allFinite();
-  }
+  bool is_finite() const { return t_.allFinite() && R_.quaternion().coeffs().allFinite(); }
 
  private:
   // The coupling block of the SE(3) Jacobian (Barfoot's Q), with its Taylor form near zero.

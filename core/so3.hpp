@@ -73,8 +73,7 @@ class SO3 {
       return Mat3::Identity() - 0.5 * W + (1.0 / 12.0 + theta2 / 720.0) * W * W;
     }
     const double theta = std::sqrt(theta2);
-    const double coeff =
-        1.0 / theta2 - (1.0 + std::cos(theta)) / (2.0 * theta * std::sin(theta));
+    const double coeff = 1.0 / theta2 - (1.0 + std::cos(theta)) / (2.0 * theta * std::sin(theta));
     return Mat3::Identity() - 0.5 * W + coeff * W * W;
   }
 

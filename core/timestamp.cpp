@@ -73,8 +73,8 @@ std::optional<Timestamp> parse_seconds(std::string_view text) {
 
 std::string format_seconds(Timestamp t) {
   const bool negative = t < 0;
-  const std::uint64_t a = negative ? static_cast<std::uint64_t>(-(t + 1)) + 1u
-                                   : static_cast<std::uint64_t>(t);
+  const std::uint64_t a =
+      negative ? static_cast<std::uint64_t>(-(t + 1)) + 1u : static_cast<std::uint64_t>(t);
   char buf[48];
   std::snprintf(buf, sizeof(buf), "%s%llu.%09llu", negative ? "-" : "",
                 static_cast<unsigned long long>(a / kNanosPerSecond),

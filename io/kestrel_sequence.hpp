@@ -4,7 +4,7 @@
 //   rgb/<stamp>.png        8-bit colour           rgb.txt    "stamp rgb/<stamp>.png"  (TUM list)
 //   depth/<stamp>.png      16-bit, 5000 = 1 m     depth.txt  "stamp depth/<stamp>.png"
 //   dynamic/<stamp>.png    16-bit mover instance id per pixel, 0 = static (ground truth)
-//   imu.csv                EuRoC columns: timestamp [ns], w_x, w_y, w_z [rad/s], a_x, a_y, a_z [m/s^2]
+//   imu.csv                EuRoC columns: timestamp [ns], w_x,y,z [rad/s], a_x,y,z [m/s^2]
 //   groundtruth.txt        TUM trajectory, T_w_body
 //   calib.yaml             Kestrel config dialect (core/config.hpp)
 //   boxes.csv              ground-truth boxes, one row per frame and visible actor or object
@@ -23,12 +23,12 @@
 namespace kestrel::io {
 
 struct SequenceBox {
-  Timestamp t = 0;            // frame stamp
-  int instance = 0;           // actor / object id; equals the id in dynamic/ masks for movers
-  std::string label;          // COCO class name ("person", "chair", ...) or another name
+  Timestamp t = 0;    // frame stamp
+  int instance = 0;   // actor / object id; equals the id in dynamic/ masks for movers
+  std::string label;  // COCO class name ("person", "chair", ...) or another name
   double x_min = 0, y_min = 0, x_max = 0, y_max = 0;  // pixels, inclusive-exclusive
-  bool moving = false;        // moving at this frame
-  double occluded = 0.0;      // fraction of the actor hidden by others or by the scene
+  bool moving = false;                                // moving at this frame
+  double occluded = 0.0;  // fraction of the actor hidden by others or by the scene
 };
 
 struct SequenceObject {
@@ -38,7 +38,7 @@ struct SequenceObject {
   Vec3 size = Vec3::Zero();    // extent along the object's own axes
   double yaw = 0.0;            // about world z, radians
   int observations = 0;
-  double first_seen = 0.0;     // seconds
+  double first_seen = 0.0;  // seconds
   double last_seen = 0.0;
 };
 

@@ -69,8 +69,9 @@ void TextTable::fail(const TextRow& row, const std::string& field,
 
 void TextTable::require_fields(const TextRow& row, std::size_t n, const std::string& what) const {
   if (row.fields.size() < n) {
-    fail(row, "", "expected " + std::to_string(n) + " fields (" + what + "), got " +
-                      std::to_string(row.fields.size()));
+    fail(row, "",
+         "expected " + std::to_string(n) + " fields (" + what + "), got " +
+             std::to_string(row.fields.size()));
   }
 }
 
