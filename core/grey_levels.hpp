@@ -1,6 +1,6 @@
 #pragma once
 // Contrast of an 8-bit grey image from a sparse grid of its pixels: what the feature extractor
-// (stretching dim images) and the dynamic filter (a wider flow window on them) judge it by.
+// judges a dim image by before stretching it.
 #include <cstddef>
 #include <cstdint>
 

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <optional>
 #include <stdexcept>
 #include <unordered_map>
 
@@ -155,6 +156,51 @@ int pyramid_levels(const DynamicFilterOptions& opt) {
 std::vector<cv::Mat> from_level(const std::vector<cv::Mat>& pyramid, int base) {
   const std::size_t skip = std::min(pyramid.size() - 2, 2 * static_cast<std::size_t>(base));
   return {pyramid.begin() + static_cast<long>(skip), pyramid.end()};
+}
+
+// Forward (cur -> prev) and backward LK, one pair of calls per window size, each point with its
+// own window (windows[k] for from[k]); results land at the points' own indices.
+// `to` holds the initial flow where flags ask for it; err is filled only when given.
+void flow_by_window(const std::vector<cv::Mat>& cur_levels, const std::vector<cv::Mat>& prev_levels,
+                    const std::vector<int>& windows, const DynamicFilterOptions& opt, int levels,
+                    int backward_levels, const cv::TermCriteria& term, int flags,
+                    const std::vector<cv::Point2f>& from, std::vector<cv::Point2f>& to,
+                    std::vector<cv::Point2f>& back, std::vector<unsigned char>& st_f,
+                    std::vector<unsigned char>& st_b, std::vector<float>* err) {
+  std::vector<std::size_t> group;
+  std::vector<cv::Point2f> g_from, g_to, g_back;
+  std::vector<unsigned char> g_st_f, g_st_b;
+  std::vector<float> g_err;
+  for (const int window : {opt.lk_window, opt.lk_window_dim}) {
+    group.clear();
+    for (std::size_t k = 0; k < from.size(); ++k) {
+      if (windows[k] == window) group.push_back(k);
+    }
+    if (group.empty()) continue;
+    g_from.resize(group.size());
+    g_to.resize(group.size());
+    for (std::size_t j = 0; j < group.size(); ++j) {
+      g_from[j] = from[group[j]];
+      g_to[j] = to[group[j]];
+    }
+    const cv::Size win(window, window);
+    const cv::_OutputArray err_out =
+        err ? cv::_OutputArray(g_err) : cv::_OutputArray(cv::noArray());
+    cv::calcOpticalFlowPyrLK(cur_levels, prev_levels, g_from, g_to, g_st_f, err_out, win, levels,
+                             term, flags, opt.lk_min_eigen);
+    g_back = g_from;
+    cv::calcOpticalFlowPyrLK(prev_levels, cur_levels, g_to, g_back, g_st_b, cv::noArray(), win,
+                             backward_levels, term, cv::OPTFLOW_USE_INITIAL_FLOW);
+    for (std::size_t j = 0; j < group.size(); ++j) {
+      const std::size_t k = group[j];
+      to[k] = g_to[j];
+      back[k] = g_back[j];
+      st_f[k] = g_st_f[j];
+      st_b[k] = g_st_b[j];
+      if (err) (*err)[k] = g_err[j];
+    }
+    if (opt.lk_window_dim == opt.lk_window) break;
+  }
 }
 
 // Step 7 of classify_features (DynamicFilterOptions::coherent_neighbours): `departure[i]` is
@@ -524,42 +570,9 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
   std::vector<float> lk_err(opt.ego_flow_retry ? n : 0);  // the patches' mean error, for the retry
   std::vector<unsigned char> st1(n, 0), st2(n, 0);
   pts_back = lk_cur;
-  // One forward and one backward call per window size, each over the features that take it.
-  std::vector<std::size_t> group;
-  std::vector<cv::Point2f> g_cur, g_prev, g_back;
-  std::vector<unsigned char> g_st1, g_st2;
-  std::vector<float> g_err;
-  for (const int window : {opt.lk_window, opt.lk_window_dim}) {
-    group.clear();
-    for (std::size_t i = 0; i < n; ++i) {
-      if (windows[i] == window) group.push_back(i);
-    }
-    if (group.empty()) continue;
-    g_cur.resize(group.size());
-    g_prev.resize(group.size());
-    for (std::size_t k = 0; k < group.size(); ++k) {
-      g_cur[k] = lk_cur[group[k]];
-      g_prev[k] = lk_prev[group[k]];
-    }
-    const cv::Size win(window, window);
-    const cv::_OutputArray err_out =
-        opt.ego_flow_retry ? cv::_OutputArray(g_err) : cv::_OutputArray(cv::noArray());
-    cv::calcOpticalFlowPyrLK(cur_levels, prev_levels, g_cur, g_prev, g_st1, err_out, win, levels,
-                             term, flags, opt.lk_min_eigen);
-    g_back = g_cur;
-    cv::calcOpticalFlowPyrLK(prev_levels, cur_levels, g_prev, g_back, g_st2, cv::noArray(), win,
-                             std::min(opt.lk_backward_levels, levels), term,
-                             cv::OPTFLOW_USE_INITIAL_FLOW);
-    for (std::size_t k = 0; k < group.size(); ++k) {
-      const std::size_t i = group[k];
-      lk_prev[i] = g_prev[k];
-      pts_back[i] = g_back[k];
-      st1[i] = g_st1[k];
-      st2[i] = g_st2[k];
-      if (opt.ego_flow_retry) lk_err[i] = g_err[k];
-    }
-    if (opt.lk_window_dim == opt.lk_window) break;
-  }
+  flow_by_window(cur_levels, prev_levels, windows, opt, levels,
+                 std::min(opt.lk_backward_levels, levels), term, flags, lk_cur, lk_prev, pts_back,
+                 st1, st2, opt.ego_flow_retry ? &lk_err : nullptr);
   for (std::size_t i = 0; i < n; ++i) {
     pts_prev[i] = lk_prev[i] * scale;
     pts_back[i] *= scale;
@@ -638,9 +651,17 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
                    ? -explained
                    : explained;
       };
-      if (prior && opt.prior_first && from_prior(rvec, tvec) >= 10) {
-        solved = true;
-        out.motion_from_prior = true;
+      // The prediction's refinement, once: tried first (prior_first) or after RANSAC disagrees.
+      cv::Mat r_refined, t_refined;
+      std::optional<int> explained;
+      if (prior && opt.prior_first) {
+        explained = from_prior(r_refined, t_refined);
+        if (*explained >= 10) {
+          rvec = r_refined;
+          tvec = t_refined;
+          solved = true;
+          out.motion_from_prior = true;
+        }
       }
       if (!solved) {
         std::vector<int> inliers;
@@ -656,15 +677,12 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
           (!solved || !motion_agrees(rvec, tvec, r_prior, t_prior, gate_r, gate_t))) {
         // RANSAC found another consensus than the predicted motion (or none): the points the
         // prediction explains are the world, if there are enough of them.
-        cv::Mat rp, tp;
-        const int explained = from_prior(rp, tp);
-        if (std::abs(explained) >= 10 || opt.prior_without_support) {
-          if (explained < 10) {
-            rp = r_prior;  // too few points, or the refinement slid off to the other consensus
-            tp = t_prior;
-          }
-          rvec = rp;
-          tvec = tp;
+        if (!explained) explained = from_prior(r_refined, t_refined);
+        if (std::abs(*explained) >= 10 || opt.prior_without_support) {
+          // Too few points, or the refinement slid off to the other consensus: the prediction.
+          const bool supported = *explained >= 10;
+          rvec = supported ? r_refined : r_prior;
+          tvec = supported ? t_refined : t_prior;
           solved = true;
           out.motion_from_prior = true;
         }
@@ -963,35 +981,10 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
       std::vector<float> err(retry.size(), 0.0f);
       const int retry_levels = std::min(levels, 1);
       // Each feature with its own window, so that its error compares with its first flow's.
-      for (const int window : {opt.lk_window, opt.lk_window_dim}) {
-        std::vector<std::size_t> ks;
-        for (std::size_t k = 0; k < retry.size(); ++k) {
-          if (windows[retry[k]] == window) ks.push_back(k);
-        }
-        if (ks.empty()) continue;
-        std::vector<cv::Point2f> r_cur(ks.size()), r_prev(ks.size()), r_back;
-        for (std::size_t j = 0; j < ks.size(); ++j) {
-          r_cur[j] = from_cur[ks[j]];
-          r_prev[j] = to_prev[ks[j]];
-        }
-        r_back = r_cur;
-        std::vector<unsigned char> r_st_f, r_st_b;
-        std::vector<float> r_err;
-        const cv::Size win(window, window);
-        cv::calcOpticalFlowPyrLK(cur_levels, prev_levels, r_cur, r_prev, r_st_f, r_err, win,
-                                 retry_levels, term, cv::OPTFLOW_USE_INITIAL_FLOW,
-                                 opt.lk_min_eigen);
-        cv::calcOpticalFlowPyrLK(prev_levels, cur_levels, r_prev, r_back, r_st_b, cv::noArray(),
-                                 win, retry_levels, term, cv::OPTFLOW_USE_INITIAL_FLOW);
-        for (std::size_t j = 0; j < ks.size(); ++j) {
-          to_prev[ks[j]] = r_prev[j];
-          back[ks[j]] = r_back[j];
-          st_f[ks[j]] = r_st_f[j];
-          st_b[ks[j]] = r_st_b[j];
-          err[ks[j]] = r_err[j];
-        }
-        if (opt.lk_window_dim == opt.lk_window) break;
-      }
+      std::vector<int> retry_windows(retry.size());
+      for (std::size_t k = 0; k < retry.size(); ++k) retry_windows[k] = windows[retry[k]];
+      flow_by_window(cur_levels, prev_levels, retry_windows, opt, retry_levels, retry_levels, term,
+                     cv::OPTFLOW_USE_INITIAL_FLOW, from_cur, to_prev, back, st_f, st_b, &err);
       for (std::size_t k = 0; k < retry.size(); ++k) {
         const std::size_t i = retry[k];
         const cv::Point2f fb = back[k] * scale - pts_cur[i];
