@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 #include <Eigen/Cholesky>
 
@@ -124,6 +125,26 @@ std::vector<InertialPredictor::WindowTerm> InertialPredictor::window_terms(
   }
   if (pre_out) *pre_out = pre;
   return out;
+}
+
+void InertialPredictor::set_gravity(const Vec3& g) {
+  if (!g.allFinite()) throw std::invalid_argument("InertialPredictor::set_gravity: not finite");
+  options_.gravity = g;
+  // The accelerometer bias was fitted under the old gravity too: it starts again.
+  bias_.acc.setZero();
+  acc_bias_cov_ =
+      Mat3::Identity() * options_.initial_acc_bias_sigma * options_.initial_acc_bias_sigma;
+  v_last_.reset();
+  velocity_fitted_at_.reset();
+  if (!fixes_.empty()) update_velocity();
+}
+
+void InertialPredictor::set_gyro_bias(const Vec3& b, double sigma) {
+  if (!b.allFinite() || !std::isfinite(sigma) || sigma <= 0.0) {
+    throw std::invalid_argument("InertialPredictor::set_gyro_bias: a finite bias and sigma > 0");
+  }
+  bias_.gyro = b;
+  gyro_bias_cov_ = Mat3::Identity() * sigma * sigma;
 }
 
 bool InertialPredictor::update_biases() {

@@ -85,11 +85,16 @@ class InertialPredictor {
   };
   std::optional<Attitude> attitude() const;
 
-  // World gravity, when the world is not the z-up one the options assume.
-  void set_gravity(const Vec3& g) { options_.gravity = g; }
+  // World gravity, when the world is not the z-up one the options assume. The velocity is fitted
+  // again: one fitted under the assumed gravity is off by the difference times the window's
+  // length (EuRoC, camera-first world: 4 m/s for a body at rest).
+  void set_gravity(const Vec3& g);
   const Vec3& gravity() const { return options_.gravity; }
 
   const ImuBias& bias() const { return bias_; }
+  // A gyro bias measured apart from vision (the gyro's mean over a still period), with its one
+  // sigma per axis: the estimate and its covariance restart from it.
+  void set_gyro_bias(const Vec3& b, double sigma);
   // One sigma of the gyro bias estimate (rad/s, the largest axis).
   double gyro_bias_sigma() const { return std::sqrt(gyro_bias_cov_.diagonal().maxCoeff()); }
   std::size_t fixes() const { return fixes_.size(); }

@@ -15,6 +15,7 @@
 #include <unordered_map>
 
 #include "detect/dynamic_classes.hpp"
+#include "imu/imu_initializer.hpp"
 #include "imu/inertial_local_ba.hpp"
 #include "imu/preintegration.hpp"
 #include "io/cv_image.hpp"
@@ -467,6 +468,24 @@ struct System::Impl {
            e.tail<3>().squaredNorm() / (p.rotation_sigma * p.rotation_sigma);
   }
 
+  // SystemOptions::static_gyro_bias: the IMU buffer holds the last second.
+  void set_static_gyro_bias(Timestamp t) {
+    std::vector<ImuSample> s;
+    {
+      std::lock_guard<std::mutex> lock(imu_mutex);
+      if (!imu.empty()) s = imu.between(std::max(imu.earliest(), t - kSecond), t);
+    }
+    imu::StaticInitOptions so;
+    so.window_s = 0.25;
+    so.min_still_s = 0.5;
+    const imu::StaticInitResult r = imu::static_initialize(s, so);
+    if (!r.ok()) return;
+    // gyro_std is the spread of 0.1 s block means: the mean of n such blocks is that over √n.
+    const double blocks = std::max(1.0, to_seconds(r.still_end - r.still_begin) / so.smoothing_s);
+    predictor.set_gyro_bias(r.gyro_bias, std::max(r.gyro_std / std::sqrt(blocks), 1e-4));
+    stats.count("imu.static_gyro_bias");
+  }
+
   // Gravity in a world that is not gravity-aligned (no ground truth, no IMU before the first
   // frame: EuRoC's IMU starts with its first image, so does a live one): the specific force
   // rotated into the world, averaged over half a second of tracked frames, is -gravity as
@@ -483,6 +502,7 @@ struct System::Impl {
     if (std::fabs(g.norm() - imu::kGravityMagnitude) < 0.5) {
       predictor.set_gravity(g.normalized() * imu::kGravityMagnitude);
       gravity_known = true;
+      if (options.static_gyro_bias) set_static_gyro_bias(t);
     } else {
       gravity_sum.setZero();  // accelerating: try the next half second
       gravity_samples = 0;

@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <random>
 
 #include "imu_test_motion.hpp"
@@ -23,9 +24,10 @@ SE3 noisy_fix(const Motion& m, double t, double sigma_p, double sigma_r, std::mt
   return SE3(m.rotation(t) * SO3::exp(sigma_r * dr), m.position(t) + sigma_p * dp);
 }
 
-// Feeds fixes at frame rate over [0, t_end] and returns the predictor.
+// Feeds fixes at frame rate over [0, t_end] and returns the predictor. `world`: the fixes are
+// given in a world turned by it (a camera-first world, not the z-up one).
 InertialPredictor run(const Motion& m, double t_end, double sigma_p, double sigma_r, unsigned seed,
-                      double imu_until) {
+                      double imu_until, const SO3& world = SO3()) {
   InertialPredictor p;
   std::mt19937 rng(seed);
   std::vector<ImuSample> imu = m.samples(0.0, imu_until, kImuRate);
@@ -48,7 +50,7 @@ InertialPredictor run(const Motion& m, double t_end, double sigma_p, double sigm
   for (int f = 0; f / kFrameRate <= t_end; ++f) {
     const double t = f / kFrameRate;
     feed_until(t);
-    p.add_fix(from_seconds(t), noisy_fix(m, t, sigma_p, sigma_r, rng));
+    p.add_fix(from_seconds(t), SE3(world, Vec3::Zero()) * noisy_fix(m, t, sigma_p, sigma_r, rng));
   }
   feed_until(imu_until);
   return p;
@@ -71,6 +73,33 @@ TEST(InertialPredictor, VelocityFromCentimetreFixes) {
   const double err = (*p.velocity() - m.velocity(t_last)).norm();
   // Differencing two fixes a frame apart would be off by ~0.4 m/s here.
   EXPECT_LT(err, 0.05) << "velocity error " << err << " m/s";
+}
+
+// A world whose gravity is learnt after the first fixes (EuRoC's camera-first world): the
+// velocity fitted under the assumed z-up gravity is off by metres per second, and set_gravity
+// fits it again. Before, the System's first predictions carried a body at rest off at 4 m/s.
+TEST(InertialPredictor, SetGravityFitsTheVelocityAgain) {
+  const Motion m;
+  const SO3 world = SO3::exp(Vec3(0.4, -1.3, 0.2));
+  const double t_end = 2.0;
+  InertialPredictor p = run(m, t_end, 0.01, 1e-3, 3, 5.0, world);
+  const double t_last = std::floor(t_end * kFrameRate) / kFrameRate;
+  const Vec3 v_true = world * m.velocity(t_last);
+  ASSERT_TRUE(p.velocity().has_value());
+  EXPECT_GT((*p.velocity() - v_true).norm(), 1.0) << "the assumed gravity should not fit";
+  p.set_gravity(world * m.gravity);
+  ASSERT_TRUE(p.velocity().has_value());
+  EXPECT_LT((*p.velocity() - v_true).norm(), 0.05) << p.velocity()->transpose();
+  EXPECT_THROW(p.set_gravity(Vec3(0.0, std::nan(""), 0.0)), std::invalid_argument);
+}
+
+TEST(InertialPredictor, SetGyroBiasRestartsTheEstimate) {
+  InertialPredictor p;
+  p.set_gyro_bias(Vec3(0.001, 0.02, 0.08), 0.002);
+  EXPECT_TRUE(p.bias().gyro.isApprox(Vec3(0.001, 0.02, 0.08)));
+  EXPECT_NEAR(p.gyro_bias_sigma(), 0.002, 1e-12);
+  EXPECT_THROW(p.set_gyro_bias(Vec3::Zero(), 0.0), std::invalid_argument);
+  EXPECT_THROW(p.set_gyro_bias(Vec3(std::nan(""), 0.0, 0.0), 0.01), std::invalid_argument);
 }
 
 TEST(InertialPredictor, EstimatesBothBiases) {
