@@ -184,8 +184,10 @@ bool InertialPredictor::update_biases() {
       ++used;
     }
     if (used >= 3) {
-      const Mat3 C = H.inverse();
-      const Vec3 z = bias_.gyro + C * g;
+      const Mat3 H_inv = H.inverse();
+      const Vec3 z = bias_.gyro + H_inv * g;
+      const double floor = options_.gyro_bias_window_floor;
+      const Mat3 C = H_inv + Mat3::Identity() * floor * floor;
       if (C.allFinite() && z.allFinite()) fuse(bias_.gyro, gyro_bias_cov_, z, C);
     }
   }

@@ -4,7 +4,10 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <functional>
 #include <random>
 
 #include "imu_test_motion.hpp"
@@ -26,9 +29,13 @@ SE3 noisy_fix(const Motion& m, double t, double sigma_p, double sigma_r, std::mt
 
 // Feeds fixes at frame rate over [0, t_end] and returns the predictor. `world`: the fixes are
 // given in a world turned by it (a camera-first world, not the z-up one).
+// `options`: the predictor's; `fix_error`: an attitude error of every fix at t (a track's slow
+// drift, unlike the white noise of sigma_r).
 InertialPredictor run(const Motion& m, double t_end, double sigma_p, double sigma_r, unsigned seed,
-                      double imu_until, const SO3& world = SO3()) {
-  InertialPredictor p;
+                      double imu_until, const SO3& world = SO3(),
+                      const InertialPredictorOptions& options = {},
+                      const std::function<SO3(double)>& fix_error = {}) {
+  InertialPredictor p(options);
   std::mt19937 rng(seed);
   std::vector<ImuSample> imu = m.samples(0.0, imu_until, kImuRate);
   test::add_noise(imu, ImuNoise{}, 1.0 / kImuRate, rng);
@@ -50,7 +57,9 @@ InertialPredictor run(const Motion& m, double t_end, double sigma_p, double sigm
   for (int f = 0; f / kFrameRate <= t_end; ++f) {
     const double t = f / kFrameRate;
     feed_until(t);
-    p.add_fix(from_seconds(t), SE3(world, Vec3::Zero()) * noisy_fix(m, t, sigma_p, sigma_r, rng));
+    SE3 fix = noisy_fix(m, t, sigma_p, sigma_r, rng);
+    if (fix_error) fix = SE3(fix.so3() * fix_error(t), fix.translation());
+    p.add_fix(from_seconds(t), SE3(world, Vec3::Zero()) * fix);
   }
   feed_until(imu_until);
   return p;
@@ -106,9 +115,37 @@ TEST(InertialPredictor, EstimatesBothBiases) {
   Motion m;
   m.gyro_bias = Vec3(0.01, -0.02, 0.015);
   m.acc_bias = Vec3(0.08, -0.05, 0.1);
-  InertialPredictor p = run(m, 6.0, 0.005, 5e-4, 2, 8.0);
+  // Fixes with white noise only: the window's own covariance is the truth, no floor.
+  InertialPredictorOptions o;
+  o.gyro_bias_window_floor = 0.0;
+  InertialPredictor p = run(m, 6.0, 0.005, 5e-4, 2, 8.0, SO3(), o);
   EXPECT_LT((p.bias().gyro - m.gyro_bias).norm(), 0.003) << p.bias().gyro.transpose();
   EXPECT_LT((p.bias().acc - m.acc_bias).norm(), 0.04) << p.bias().acc.transpose();
+}
+
+// A track whose attitude slides 2 degrees over its first 2 s (a take-off over bare ground)
+// and then holds: the window fit reads that slide as a 0.017 rad/s gyro bias, white fix noise
+// would let it in whole, and the gyro prior would then hold every later frame to it. With the
+// floor, the estimate moves a third of the way; a true bias is still learnt, more slowly.
+TEST(InertialPredictor, ASlidingTrackDoesNotSetTheGyroBias) {
+  const Motion m;  // no gyro bias
+  const Vec3 axis = Vec3(1.0, -2.0, 0.5).normalized();
+  const auto slide = [&](double t) { return SO3::exp(axis * (0.035 * std::min(t, 2.0) / 2.0)); };
+  InertialPredictorOptions white;
+  white.gyro_bias_window_floor = 0.0;
+  const InertialPredictor without = run(m, 2.2, 0.005, 5e-4, 4, 4.0, SO3(), white, slide);
+  const InertialPredictor with = run(m, 2.2, 0.005, 5e-4, 4, 4.0, SO3(), {}, slide);
+  std::printf("gyro bias read from a 2 degree slide: %.4f rad/s without the floor, %.4f with\n",
+              without.bias().gyro.norm(), with.bias().gyro.norm());
+  EXPECT_GT(without.bias().gyro.norm(), 0.012) << without.bias().gyro.transpose();
+  EXPECT_LT(with.bias().gyro.norm(), 0.5 * without.bias().gyro.norm())
+      << with.bias().gyro.transpose();
+  // A true bias, with honest fixes, over 30 s.
+  Motion biased;
+  biased.gyro_bias = Vec3(0.01, -0.02, 0.015);
+  const InertialPredictor learnt = run(biased, 30.0, 0.005, 5e-4, 5, 32.0);
+  EXPECT_LT((learnt.bias().gyro - biased.gyro_bias).norm(), 0.006)
+      << learnt.bias().gyro.transpose();
 }
 
 TEST(InertialPredictor, DeadReckonsThroughAOneSecondGap) {
@@ -184,7 +221,11 @@ TEST(InertialPredictor, AttitudeOutlivesThePrediction) {
   Motion m;
   m.gyro_bias = Vec3(0.004, -0.003, 0.005);
   const double t_fix = 4.0;
-  InertialPredictor p = run(m, t_fix, 0.005, 5e-4, 6, t_fix + 8.0);
+  // White-noise fixes: their windows are trusted as they are (no floor), so the bias is known
+  // after these 4 s; what is tested is how long the attitude lasts on it.
+  InertialPredictorOptions o;
+  o.gyro_bias_window_floor = 0.0;
+  InertialPredictor p = run(m, t_fix, 0.005, 5e-4, 6, t_fix + 8.0, SO3(), o);
   const double t_last = std::floor(t_fix * kFrameRate) / kFrameRate;
   EXPECT_FALSE(p.predict(from_seconds(t_last + 8.0))) << "past max_gap_s";
   const auto a = p.attitude();
