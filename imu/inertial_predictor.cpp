@@ -145,6 +145,7 @@ void InertialPredictor::set_gyro_bias(const Vec3& b, double sigma) {
   }
   bias_.gyro = b;
   gyro_bias_cov_ = Mat3::Identity() * sigma * sigma;
+  gyro_bias_measured_ = true;
 }
 
 bool InertialPredictor::update_biases() {
@@ -188,7 +189,9 @@ bool InertialPredictor::update_biases() {
       const Vec3 z = bias_.gyro + H_inv * g;
       const double floor = options_.gyro_bias_window_floor;
       const Mat3 C = H_inv + Mat3::Identity() * floor * floor;
-      if (C.allFinite() && z.allFinite()) fuse(bias_.gyro, gyro_bias_cov_, z, C);
+      if (C.allFinite() && z.allFinite() && fuse(bias_.gyro, gyro_bias_cov_, z, C)) {
+        gyro_bias_measured_ = true;
+      }
     }
   }
 

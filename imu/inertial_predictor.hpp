@@ -110,6 +110,9 @@ class InertialPredictor {
   // A gyro bias measured apart from vision (the gyro's mean over a still period), with its one
   // sigma per axis: the estimate and its covariance restart from it.
   void set_gyro_bias(const Vec3& b, double sigma);
+  // Whether the gyro bias has been measured at all (set_gyro_bias, or a window fused): until
+  // then it is the initial guess, zero with initial_gyro_bias_sigma.
+  bool gyro_bias_measured() const { return gyro_bias_measured_; }
   // One sigma of the gyro bias estimate (rad/s, the largest axis).
   double gyro_bias_sigma() const { return std::sqrt(gyro_bias_cov_.diagonal().maxCoeff()); }
   std::size_t fixes() const { return fixes_.size(); }
@@ -145,6 +148,7 @@ class InertialPredictor {
   ImuBias bias_;
   Mat3 acc_bias_cov_;
   Mat3 gyro_bias_cov_;
+  bool gyro_bias_measured_ = false;
   Timestamp bias_updated_at_ = 0;  // stamp of the newest fix the biases have seen
   std::optional<Vec3> v_last_;
   std::optional<Timestamp> velocity_fitted_at_;
