@@ -246,6 +246,14 @@ Trajectory to_trajectory(const PoseSeries& series) {
   return trajectory;
 }
 
+PoseSeries to_pose_series(const Trajectory& trajectory) {
+  PoseSeries series;
+  series.stamps = trajectory.stamps;
+  series.poses.reserve(trajectory.poses.size());
+  for (const SE3& pose : trajectory.poses) series.poses.push_back(pose.matrix());
+  return series;
+}
+
 Trajectory read_trajectory(const std::string& path, const std::string& times_path) {
   return to_trajectory(read_pose_series(path, times_path));
 }

@@ -37,6 +37,8 @@ PoseSeries read_pose_series(const std::string& path, const std::string& times_pa
 
 // The same files as kestrel::Trajectory (rotations re-orthonormalized into unit quaternions).
 Trajectory to_trajectory(const PoseSeries& series);
+// ... and back, for evaluating a trajectory the system made (stamped, TUM-like).
+PoseSeries to_pose_series(const Trajectory& trajectory);
 Trajectory read_trajectory(const std::string& path, const std::string& times_path = "");
 Trajectory parse_trajectory(const std::string& text, const std::string& name);
 

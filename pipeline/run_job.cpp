@@ -29,13 +29,6 @@
 namespace kestrel::pipeline {
 namespace {
 
-io::PoseSeries to_series(const Trajectory& t) {
-  io::PoseSeries s;
-  s.stamps = t.stamps;
-  for (const SE3& p : t.poses) s.poses.push_back(p.matrix());
-  return s;
-}
-
 // Shows progress and keeps the reports of the frames chosen for the report's strip.
 class RunObserver : public Observer {
  public:
@@ -313,7 +306,8 @@ RunSummary run_sequence(io::MeasurementSource& source, const RunOptions& options
     ape.association.method = eval::AssociationMethod::kEvo;
     ape.association.max_diff = 0.01;
     ape.alignment = eval::Alignment::kSe3;
-    const eval::Evaluation e = eval::evaluate_ape(to_series(*gt), to_series(traj), ape);
+    const eval::Evaluation e =
+        eval::evaluate_ape(io::to_pose_series(*gt), io::to_pose_series(traj), ape);
     summary.ape_rmse_m = e.stats.rmse;
     summary.ape_pairs = e.stats.count;
   }

@@ -412,7 +412,7 @@ struct System::Impl {
   // bias has been measured once (a still start, or a first window of fixes), the prior also
   // counts the bias's initial uncertainty over dt: EuRoC V1_01's gyro reads 0.08 rad/s about z
   // at rest, and a prior that took the unknown bias as zero held its first second of vision
-  // to a turning camera (APE 6.9 mm; 1.1 mm with the term, stereo alone 0.9).
+  // to a turning camera (APE 6.9 mm; 1.0 mm with the term, stereo alone 0.9).
   double gyro_prior_sigma(double dt, double angle) const {
     const double bias = predictor.gyro_bias_measured() ? 0.0 : predictor.gyro_bias_sigma() * dt;
     return calib.imu.gyro_noise * std::sqrt(dt) + bias + options.gyro_prior_sigma_floor +

@@ -10,6 +10,7 @@
 #include "eval/report/image_embed.hpp"
 #include "eval/report/svg_plot.hpp"
 #include "eval/trajectory_evaluation.hpp"
+#include "io/trajectory_io.hpp"
 
 namespace kestrel::report {
 namespace {
@@ -22,13 +23,6 @@ std::string fmt(const char* format, double v) {
   char buf[64];
   std::snprintf(buf, sizeof buf, format, v);
   return buf;
-}
-
-io::PoseSeries to_series(const Trajectory& t) {
-  io::PoseSeries s;
-  s.stamps = t.stamps;
-  for (const SE3& p : t.poses) s.poses.push_back(p.matrix());
-  return s;
 }
 
 struct Ape {
@@ -49,7 +43,7 @@ Ape compute_ape(const Trajectory& gt, const Trajectory& est) {
   opt.association.max_diff = 0.01;
   opt.alignment = eval::Alignment::kSe3;
   try {
-    a.e = eval::evaluate_ape(to_series(gt), to_series(est), opt);
+    a.e = eval::evaluate_ape(io::to_pose_series(gt), io::to_pose_series(est), opt);
     a.ok = true;
   } catch (const std::exception& ex) {
     a.why = ex.what();

@@ -156,16 +156,13 @@ TEST(InertialTracking, EurocMicroStereoInertialTracksEveryFrame) {
   EXPECT_EQ(counters.count("imu.static_gyro_bias") ? counters.at("imu.static_gyro_bias") : 0, 1u)
       << "the clip starts at rest: the gyro bias comes from that";
   const Trajectory est = system.trajectory();
-  io::PoseSeries series;
-  series.stamps = est.stamps;
-  for (const SE3& p : est.poses) series.poses.push_back(p.matrix());
   eval::ApeOptions ape;
   ape.association.method = eval::AssociationMethod::kEvo;
   ape.association.max_diff = 0.01;
   ape.alignment = eval::Alignment::kSe3;
   const eval::Evaluation e = eval::evaluate_ape(
-      io::read_pose_series((dir / "groundtruth_open_vins" / "V1_01_easy.csv").string()), series,
-      ape);
+      io::read_pose_series((dir / "groundtruth_open_vins" / "V1_01_easy.csv").string()),
+      io::to_pose_series(est), ape);
   std::cout << "EuRoC V1_01_micro stereo + IMU through the System: " << est.size()
             << " poses, APE rmse " << e.stats.rmse * 1000.0 << " mm over " << e.stats.count
             << " pairs\n";

@@ -26,13 +26,6 @@ StereoFrame first_stereo_frame(io::MeasurementSource& src) {
   throw std::runtime_error("no stereo frame in " + micro_dir());
 }
 
-io::PoseSeries to_series(const Trajectory& t) {
-  io::PoseSeries s;
-  s.stamps = t.stamps;
-  for (const SE3& p : t.poses) s.poses.push_back(p.matrix());
-  return s;
-}
-
 TEST(StereoMatcher, EurocDepthsAgreeWithTheRoomScale) {
   auto src = io::open_dataset("euroc:" + micro_dir());
   const Calibration& calib = src->calibration();
@@ -151,7 +144,7 @@ TEST(StereoMatcher, EurocMicroClipTrackedWithoutDrift) {
   ape.association.method = eval::AssociationMethod::kEvo;
   ape.association.max_diff = 0.01;
   ape.alignment = eval::Alignment::kSe3;
-  const eval::Evaluation e = eval::evaluate_ape(gt, to_series(est), ape);
+  const eval::Evaluation e = eval::evaluate_ape(gt, io::to_pose_series(est), ape);
   std::cout << "EuRoC V1_01_micro stereo: " << est.size() << " poses, APE rmse "
             << e.stats.rmse * 1000.0 << " mm over " << e.stats.count << " pairs, "
             << tracker.map().num_keyframes() << " keyframes, " << tracker.map().num_points()
