@@ -412,12 +412,20 @@ Scenario parse_scenario_yaml(const std::string& text, const std::string& name,
     ts.knots.push_back(kn);
   }
   const YAML::Node wob = sub(tr, "wobble");
-  r.allow(wob, "trajectory.wobble", {"position", "rotation_deg", "frequency"});
+  r.allow(wob, "trajectory.wobble", {"position", "rotation_deg", "frequency", "fade_heights"});
   const double def_pos = ts.kind == "handheld" ? 0.02 : ts.kind == "uav" ? 0.05 : 0.0;
   const double def_rot = ts.kind == "handheld" ? 2.0 : ts.kind == "uav" ? 1.5 : 0.0;
   ts.wobble_position = r.get(wob, "position", def_pos, "trajectory.wobble.");
   ts.wobble_rotation = r.get(wob, "rotation_deg", def_rot, "trajectory.wobble.") * kDeg;
   ts.wobble_frequency = r.positive(wob, "frequency", 0.8, "trajectory.wobble.");
+  if (wob["fade_heights"].IsDefined()) {
+    const auto h = r.list(wob["fade_heights"], "trajectory.wobble.fade_heights", 2, 2);
+    if (!(h[1] > h[0]))
+      r.fail(wob["fade_heights"], "trajectory.wobble.fade_heights",
+             "expected [still_below_z, full_from_z] with the second above the first");
+    ts.wobble_fade_still = h[0];
+    ts.wobble_fade_full = h[1];
+  }
 
   s.yaml = YAML::Dump(root) + "\n";
   return s;

@@ -76,6 +76,10 @@ struct TrajectorySpec {
   double wobble_position = 0.0;   // metres
   double wobble_rotation = 0.0;   // radians
   double wobble_frequency = 0.8;  // Hz
+  // Heights (metres, world z of the body): no wobble at or below the first, full from the
+  // second (sim::Wobble). Equal: full everywhere.
+  double wobble_fade_still = 0.0;
+  double wobble_fade_full = 0.0;
 };
 
 struct Scenario {

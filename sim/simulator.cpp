@@ -38,6 +38,8 @@ SplineTrajectory make_trajectory(const Scenario& sc) {
           {c, amp / (j + 1), ts.wobble_frequency * ratios[j] * (1.0 + 0.07 * c), phase()});
     }
   }
+  wobble.fade_z_still = ts.wobble_fade_still;
+  wobble.fade_z_full = ts.wobble_fade_full;
   return SplineTrajectory(knots, ts.segment_time, wobble);
 }
 

@@ -85,12 +85,30 @@ void SplineTrajectory::channels(double t, double q[6], double dq[6], double ddq[
       }
     }
   }
+  // The wobble's amplitude factor f(z) of the spline's height and its time derivatives.
+  double f = 1.0, df = 0.0, ddf = 0.0;
+  if (wobble_.fade_z_full > wobble_.fade_z_still) {
+    const double span = wobble_.fade_z_full - wobble_.fade_z_still;
+    const double x = (q[2] - wobble_.fade_z_still) / span;
+    if (x <= 0.0) {
+      f = 0.0;
+    } else if (x < 1.0) {
+      f = x * x * x * (x * (6.0 * x - 15.0) + 10.0);
+      const double fz = 30.0 * x * x * (x - 1.0) * (x - 1.0) / span;
+      const double fzz = 60.0 * x * (2.0 * x - 1.0) * (x - 1.0) / (span * span);
+      df = fz * dq[2];
+      ddf = fzz * dq[2] * dq[2] + fz * ddq[2];
+    }
+  }
   for (const auto& term : wobble_.terms) {
     const double w = 2.0 * M_PI * term.frequency_hz;
     const double arg = w * t + term.phase;
-    q[term.channel] += term.amplitude * std::sin(arg);
-    dq[term.channel] += term.amplitude * w * std::cos(arg);
-    ddq[term.channel] -= term.amplitude * w * w * std::sin(arg);
+    const double s = term.amplitude * std::sin(arg);
+    const double ds = term.amplitude * w * std::cos(arg);
+    const double dds = -w * w * s;
+    q[term.channel] += f * s;
+    dq[term.channel] += df * s + f * ds;
+    ddq[term.channel] += ddf * s + 2.0 * df * ds + f * dds;
   }
 }
 

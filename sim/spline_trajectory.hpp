@@ -27,6 +27,12 @@ struct Wobble {
     double phase = 0.0;
   };
   std::vector<Term> terms;
+  // fade_z_full > fade_z_still: the wobble is nothing while the spline's own height (before the
+  // wobble) is at most fade_z_still and full from fade_z_full up, smootherstep between (C2, so
+  // the IMU's accelerations stay continuous). A drone sits still on its pad; gusts and the
+  // hover controller's error come once it is airborne. Equal (the default): always full.
+  double fade_z_still = 0.0;
+  double fade_z_full = 0.0;
 };
 
 struct BodyState {

@@ -74,6 +74,16 @@ TEST(Scenario, BadInputNamesFileLineAndField) {
   EXPECT_NE(error_of(base + "world:\n  objects:\n    - {center: [0, 0, 0]}\n")
                 .find("world.objects[0].label"),
             std::string::npos);
+  const std::string fade =
+      "trajectory:\n  waypoints: [[0, 0, 1, 0]]\n  wobble: {fade_heights: [1.3, 0.3]}\n";
+  EXPECT_NE(error_of(fade).find("bad.yaml:3: field 'trajectory.wobble.fade_heights'"),
+            std::string::npos)
+      << error_of(fade);
+  EXPECT_EQ(parse_scenario("trajectory:\n  waypoints: [[0, 0, 1, 0]]\n  wobble: {fade_heights: "
+                           "[0.3, 1.3]}\n",
+                           "good.yaml")
+                .trajectory.wobble_fade_full,
+            1.3);
   EXPECT_THROW(load_scenario("no-such-scenario"), Error);
   // A vehicle photo must be one of the cut-outs, and only vehicles carry one.
   const std::string bad_photo =

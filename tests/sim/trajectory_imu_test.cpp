@@ -3,6 +3,7 @@
 // velocity / acceleration have to match finite differences of the pose.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "sim/imu_synthesizer.hpp"
@@ -101,6 +102,61 @@ TEST(SplineTrajectory, AnalyticDerivativesMatchFiniteDifferences) {
     EXPECT_LT((a_fd - c.a_w).norm(), 1e-4) << t;
     EXPECT_LT((w_fd - c.omega_b).norm(), 1e-6) << t;
   }
+}
+
+// A take-off: on the pad (0.3 m) for a while, then up to 3 m, with a hovering drone's wobble
+// that fades in between 0.3 and 1.3 m.
+SplineTrajectory take_off(bool fade) {
+  Wobble w;
+  w.terms.push_back({0, 0.05, 0.9, 0.3});
+  w.terms.push_back({2, 0.05, 1.5, 1.1});
+  w.terms.push_back({3, 0.02, 1.3, 0.2});
+  w.terms.push_back({4, 0.02, 2.1, 2.0});
+  if (fade) {
+    w.fade_z_still = 0.3;
+    w.fade_z_full = 1.3;
+  }
+  return SplineTrajectory({{Vec3(0, 0, 0.3), 0.0, 0.0, 0.0},
+                           {Vec3(0, 0, 0.3), 0.0, 0.0, 0.0},
+                           {Vec3(0, 0, 3.0), 0.0, 0.0, 0.0},
+                           {Vec3(2, 0, 3.0), 0.0, 0.0, 0.0}},
+                          1.0, w);
+}
+
+TEST(SplineTrajectory, WobbleFadesOutOnThePadAndStaysDifferentiable) {
+  const SplineTrajectory faded = take_off(true), full = take_off(false);
+  // On the pad the body does not move at all; without the fade it bobs by centimetres.
+  double still = 0.0, bob = 0.0;
+  for (double t = 0.0; t <= 1.0; t += 0.01) {
+    const BodyState s = faded.state(t);
+    still = std::max({still, (s.T_w_b.translation() - Vec3(0, 0, 0.3)).norm(),
+                      s.T_w_b.so3().log().norm(), s.v_w.norm(), s.a_w.norm(), s.omega_b.norm()});
+    bob = std::max(bob, (full.state(t).T_w_b.translation() - Vec3(0, 0, 0.3)).norm());
+  }
+  EXPECT_LT(still, 1e-9);
+  EXPECT_GT(bob, 0.03);
+  // High up, the fade changes nothing.
+  for (double t : {3.2, 3.6}) {
+    const BodyState a = faded.state(t), b = full.state(t);
+    EXPECT_LT((a.T_w_b.translation() - b.T_w_b.translation()).norm(), 1e-12) << t;
+    EXPECT_LT((a.a_w - b.a_w).norm(), 1e-9) << t;
+  }
+  // In the fade band (the climb) the IMU's velocity and acceleration are still the exact
+  // derivatives: the chain rule through the height-dependent amplitude.
+  const double h = 1e-5;
+  int in_band = 0;
+  for (double t = 1.2; t < 3.0; t += 0.13) {
+    const BodyState a = faded.state(t - h), b = faded.state(t + h), c = faded.state(t);
+    const double z = c.T_w_b.translation().z();
+    in_band += z > 0.4 && z < 1.2;
+    const Vec3 v_fd = (b.T_w_b.translation() - a.T_w_b.translation()) / (2 * h);
+    const Vec3 a_fd = (b.v_w - a.v_w) / (2 * h);
+    const Vec3 w_fd = (a.T_w_b.so3().inverse() * b.T_w_b.so3()).log() / (2 * h);
+    EXPECT_LT((v_fd - c.v_w).norm(), 1e-6) << t;
+    EXPECT_LT((a_fd - c.a_w).norm(), 1e-4) << t;
+    EXPECT_LT((w_fd - c.omega_b).norm(), 1e-6) << t;
+  }
+  EXPECT_GE(in_band, 3);
 }
 
 TEST(SplineTrajectory, StartsAtRestOnTheFirstKnotAndHoldsTheEnd) {
