@@ -71,6 +71,34 @@ TEST(ScenarioDifficulty, UavTakesOffAndLandsClearOfTraffic) {
               100 * worst);
 }
 
+// Also hard, not impossible: on its pad and lifting off, the drone does not wobble. Its lens is
+// 0.3 m from bare paving there, under the depth sensor's 0.4 m for most of the view; bobbing with
+// the hovering wobble at up to 0.7 m/s, the few features with depth moved 18-26 px a frame and
+// three draws in six could not track their first 1.5 s. The wobble is in full once airborne.
+TEST(ScenarioDifficulty, UavLiftsOffItsPadWithoutWobbleAndWobblesAloft) {
+  for (const std::uint64_t seed : {1u, 4u, 5u}) {
+    Scenario sc = load_scenario("uav-zigzag");
+    sc.seed = seed;
+    const SplineTrajectory traj = make_trajectory(sc);
+    Scenario calm = sc;
+    calm.trajectory.wobble_position = calm.trajectory.wobble_rotation = 0.0;
+    const SplineTrajectory smooth = make_trajectory(calm);
+    const auto off_path = [&](double t) {
+      const BodyState a = traj.state(t), b = smooth.state(t);
+      return std::max({(a.T_w_b.translation() - b.T_w_b.translation()).norm(),
+                       (a.v_w - b.v_w).norm(), (a.omega_b - b.omega_b).norm()});
+    };
+    // The first second: on the pad and lifting off (still under 0.4 m).
+    double near_pad = 0.0;
+    for (double t = 0.0; t <= 1.0; t += 0.01) near_pad = std::max(near_pad, off_path(t));
+    EXPECT_LT(near_pad, 2e-3) << "seed " << seed;
+    // Aloft (8 m, the zig-zag) the body departs from the smooth path by centimetres.
+    double aloft = 0.0;
+    for (double t = 10.0; t <= 14.0; t += 0.05) aloft = std::max(aloft, off_path(t));
+    EXPECT_GT(aloft, 0.03) << "seed " << seed;
+  }
+}
+
 TEST(ScenarioDifficulty, OfficeStaticHasNoMovers) {
   Simulator sim(load_scenario("office-static"));
   EXPECT_TRUE(sim.world().movers().empty());
