@@ -37,6 +37,7 @@ struct RunFlags {
   bool no_loop = false;
   bool triangulate = true;
   bool half_resolution_flow = false;
+  double flow_skip_gate_px = 0.0;
   bool inertial_ba = false;
   bool no_gyro_prior = false;
   bool no_depth_carry = false;
@@ -244,6 +245,10 @@ void setup_run(CLI::App& app) {
                 "vehicles are movers even when they stand still (no parked vehicles in the maps)");
   cmd->add_flag("--half-res-flow", flags->half_resolution_flow,
                 "the dynamic filter's flow on the half-resolution image: a quarter of the cost");
+  cmd->add_option("--imu-vouched-flow", flags->flow_skip_gate_px,
+                  "PX: no backward flow check for a forward flow that ends within PX of where the "
+                  "IMU's motion puts the point (about 1 ms a frame; off by default)")
+      ->check(CLI::Range(0.0, 10.0));
   cmd->add_flag("--realtime", flags->realtime,
                 "as a live sensor: frames fed at their stamps' pace, threads run free (detection "
                 "may lag and drop) instead of in lock-step");
@@ -295,6 +300,7 @@ void setup_run(CLI::App& app) {
     opt.loop_closing = !flags->no_loop;
     opt.triangulate = flags->triangulate;
     opt.half_resolution_flow = flags->half_resolution_flow;
+    opt.flow_skip_gate_px = flags->flow_skip_gate_px;
     opt.inertial_ba = flags->inertial_ba;
     opt.gyro_rotation_prior = !flags->no_gyro_prior;
     opt.depth_carry = !flags->no_depth_carry;

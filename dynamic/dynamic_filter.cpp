@@ -166,7 +166,9 @@ void flow_by_window(const std::vector<cv::Mat>& cur_levels, const std::vector<cv
                     int backward_levels, const cv::TermCriteria& term, int flags,
                     const std::vector<cv::Point2f>& from, std::vector<cv::Point2f>& to,
                     std::vector<cv::Point2f>& back, std::vector<unsigned char>& st_f,
-                    std::vector<unsigned char>& st_b, std::vector<float>* err) {
+                    std::vector<unsigned char>& st_b, std::vector<float>* err,
+                    const std::vector<cv::Point2f>* predicted = nullptr, float gate = 0.0f,
+                    int* vouched_count = nullptr) {
   std::vector<std::size_t> group;
   std::vector<cv::Point2f> g_from, g_to, g_back;
   std::vector<unsigned char> g_st_f, g_st_b;
@@ -188,9 +190,37 @@ void flow_by_window(const std::vector<cv::Mat>& cur_levels, const std::vector<cv
         err ? cv::_OutputArray(g_err) : cv::_OutputArray(cv::noArray());
     cv::calcOpticalFlowPyrLK(cur_levels, prev_levels, g_from, g_to, g_st_f, err_out, win, levels,
                              term, flags, opt.lk_min_eigen);
+    // The backward flow, for the features whose forward flow the IMU's motion does not vouch
+    // for: a wrong forward track seldom ends where the camera's own motion puts the point. Faint
+    // patches (the wider window) are always checked: their flow is noisy enough to land there.
+    const bool may_vouch = predicted && gate > 0.0f && window == opt.lk_window;
+    std::vector<std::size_t> need;
+    need.reserve(group.size());
+    for (std::size_t j = 0; j < group.size(); ++j) {
+      const std::size_t k = group[j];
+      const bool vouched =
+          may_vouch && g_st_f[j] && (*predicted)[k].x >= 0.0f &&
+          std::hypot(g_to[j].x - (*predicted)[k].x, g_to[j].y - (*predicted)[k].y) <= gate;
+      if (!vouched && g_st_f[j]) need.push_back(j);  // a failed forward flow is invalid anyway
+      if (vouched && vouched_count) ++*vouched_count;
+    }
+    std::vector<cv::Point2f> b_from, b_back;
+    std::vector<unsigned char> b_st;
+    b_from.reserve(need.size());
+    for (const std::size_t j : need) {
+      b_from.push_back(g_to[j]);
+      b_back.push_back(g_from[j]);
+    }
+    if (!need.empty()) {
+      cv::calcOpticalFlowPyrLK(prev_levels, cur_levels, b_from, b_back, b_st, cv::noArray(), win,
+                               backward_levels, term, cv::OPTFLOW_USE_INITIAL_FLOW);
+    }
     g_back = g_from;
-    cv::calcOpticalFlowPyrLK(prev_levels, cur_levels, g_to, g_back, g_st_b, cv::noArray(), win,
-                             backward_levels, term, cv::OPTFLOW_USE_INITIAL_FLOW);
+    g_st_b.assign(group.size(), 1);
+    for (std::size_t q = 0; q < need.size(); ++q) {
+      g_back[need[q]] = b_back[q];
+      g_st_b[need[q]] = b_st[q];
+    }
     for (std::size_t j = 0; j < group.size(); ++j) {
       const std::size_t k = group[j];
       to[k] = g_to[j];
@@ -570,9 +600,27 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
   std::vector<float> lk_err(opt.ego_flow_retry ? n : 0);  // the patches' mean error, for the retry
   std::vector<unsigned char> st1(n, 0), st2(n, 0);
   pts_back = lk_cur;
+  // Where the IMU's motion puts each out-of-box feature with depth in the previous frame (in the
+  // flow's pixels); (-1, -1) where it says nothing.
+  std::vector<cv::Point2f> imu_prev;
+  if (opt.fb_skip_gate_px > 0.0 && in.R_cur_prev && in.t_cur_prev && in.depth_m.size() == n) {
+    imu_prev.assign(n, cv::Point2f(-1.0f, -1.0f));
+    const Mat3 R_pc = in.R_cur_prev->transpose();
+    const Mat3 Kinv = in.K.inverse();
+    for (std::size_t i = 0; i < n; ++i) {
+      if (!boxes_of[i].empty() || in.depth_m[i] <= 0) continue;
+      const Vec3 X = in.depth_m[i] * (Kinv * Vec3(in.points[i].x(), in.points[i].y(), 1.0));
+      const Vec3 p = in.K * (R_pc * (X - *in.t_cur_prev));
+      if (p.z() <= 1e-6) continue;
+      imu_prev[i] = cv::Point2f(static_cast<float>(p.x() / p.z()) / scale,
+                                static_cast<float>(p.y() / p.z()) / scale);
+    }
+  }
   flow_by_window(cur_levels, prev_levels, windows, opt, levels,
                  std::min(opt.lk_backward_levels, levels), term, flags, lk_cur, lk_prev, pts_back,
-                 st1, st2, opt.ego_flow_retry ? &lk_err : nullptr);
+                 st1, st2, opt.ego_flow_retry ? &lk_err : nullptr,
+                 imu_prev.empty() ? nullptr : &imu_prev,
+                 static_cast<float>(opt.fb_skip_gate_px) / scale, &out.flow_vouched);
   for (std::size_t i = 0; i < n; ++i) {
     pts_prev[i] = lk_prev[i] * scale;
     pts_back[i] *= scale;
