@@ -193,11 +193,14 @@ AgentRunSummary run_agent(io::MeasurementSource& source, const AgentRunOptions& 
       po.robot_radius = options.robot_radius;
       // The camera looks ahead and never sees the floor under the robot, so the cells it stands
       // on may still be unknown; the robot being there proves them free (footprint clearing,
-      // which the grid has for the keyframes: this is the latest pose). Nor may the map reach
-      // back to where the robot stands: the grid grows, unknown, to hold the robot's disc.
+      // which the grid has for the keyframes: this is the latest pose), occupied ones too (a
+      // station's goal was once refused with "start is inside an obstacle": the pose a few cm
+      // into a desk's cells). Nor may the map reach back to where the robot stands: the grid
+      // grows, unknown, to hold the robot's disc.
       const double res = grid.resolution();
       const double disc = (std::ceil(options.robot_radius / res) + 1.0) * res;
-      const maps::OccupancyGrid g = maps::clear_footprints(grid, {{start, disc}});
+      const maps::OccupancyGrid g =
+          maps::clear_footprints(grid, {{start, disc}}, res, /*over_obstacles=*/true);
       plan = nav::plan_path(g, start, goal, po);
     }
     if (!plan.ok()) return {c.id, 0, AckResult::kRejected, plan.message};

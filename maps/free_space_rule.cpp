@@ -94,7 +94,7 @@ OccupancyGrid resolve_columns(const BandColumns& c, const std::vector<std::uint3
 }
 
 OccupancyGrid clear_footprints(const OccupancyGrid& g, const std::vector<Footprint>& footprints,
-                               double resolution) {
+                               double resolution, bool over_obstacles) {
   const double res = g.empty() ? resolution : g.resolution();
   if (footprints.empty() || !(res > 0.0)) return g;
   // The bounds of the grid and of every disc, snapped to the grid's lattice.
@@ -127,7 +127,7 @@ OccupancyGrid clear_footprints(const OccupancyGrid& g, const std::vector<Footpri
     for (int dy = -r; dy <= r; ++dy)
       for (int dx = -r; dx <= r; ++dx) {
         const GridCell n{c->x + dx, c->y + dy};
-        if (!out.contains(n) || out.at(n) != kUnknown) continue;
+        if (!out.contains(n) || (out.at(n) != kUnknown && !over_obstacles)) continue;
         if ((out.center_of(n) - f.xy).norm() <= f.radius) out.set(n, kFree);
       }
   }

@@ -78,10 +78,12 @@ struct Footprint {
 };
 
 // Footprint clearing: unknown cells whose centre lies within a footprint's radius become free
-// (the robot stood there); occupied cells keep their evidence. The grid grows (new cells
-// unknown) to hold every footprint's disc; an empty grid becomes one that holds them at
-// `resolution`.
+// (the robot stood there); occupied cells keep their evidence, unless over_obstacles: where the
+// robot stands now, nothing else can be (ROS costmap_2d clears its footprint so too), and an
+// obstacle there is a passer-by the map caught or the pose's error against a wall. The grid
+// grows (new cells unknown) to hold every footprint's disc; an empty grid becomes one that holds
+// them at `resolution`.
 OccupancyGrid clear_footprints(const OccupancyGrid& g, const std::vector<Footprint>& footprints,
-                               double resolution = 0.1);
+                               double resolution = 0.1, bool over_obstacles = false);
 
 }  // namespace kestrel::maps

@@ -146,6 +146,11 @@ TEST(FreeSpaceRule, FootprintClearingFreesTheDiscAndGrowsTheGrid) {
   EXPECT_EQ(only.resolution(), 0.05);
   EXPECT_EQ(cell_at(only, 3.0, 4.0), kFree);
   EXPECT_EQ(clear_footprints(g, {}).cells(), g.cells());
+  // Where the robot stands now, even an occupied cell is free.
+  const OccupancyGrid now = clear_footprints(g, {{Vec2(0.25, 0.25), 0.2}}, 0.1, true);
+  EXPECT_EQ(cell_at(now, 0.25, 0.25), kFree);
+  EXPECT_EQ(cell_at(now, 0.85, 0.85), kFree);
+  EXPECT_EQ(cell_at(now, 0.55, 0.25), kUnknown);
 }
 
 // The whole rule on a rendered scene: a camera 0.4 m up before a parked car. The space under
