@@ -321,22 +321,64 @@ FlowPyramid build_flow_pyramid(const Image& gray, const DynamicFilterOptions& op
   return FlowPyramid{std::move(lv)};
 }
 
+namespace {
+
+// The interior pixels of the window x window patch at (x, y) of a width x height image.
+struct PatchSpan {
+  int u_lo, u_hi, v_lo, v_hi;
+};
+PatchSpan interior_patch(int width, int height, double x, double y, int window) {
+  const int half = std::max(window, 1) / 2;
+  const int u0 = static_cast<int>(std::lround(x)), v0 = static_cast<int>(std::lround(y));
+  return {std::max(1, u0 - half), std::min(width - 2, u0 + half), std::max(1, v0 - half),
+          std::min(height - 2, v0 + half)};
+}
+
+// weakest_gradient from the sums of the Scharr structure tensor over `count` pixels.
+double weakest_from_tensor(std::int64_t s11, std::int64_t s12, std::int64_t s22, int count) {
+  if (count == 0) return 0.0;
+  const double norm = 1.0 / (32.0 * 32.0 * count);
+  const double a11 = static_cast<double>(s11) * norm, a12 = static_cast<double>(s12) * norm,
+               a22 = static_cast<double>(s22) * norm;
+  const double lmin = 0.5 * (a11 + a22 - std::sqrt((a11 - a22) * (a11 - a22) + 4.0 * a12 * a12));
+  return std::sqrt(std::max(lmin, 0.0));
+}
+
+// The same from the level-0 derivatives buildOpticalFlowPyramid already computed for the flow
+// (CV_16SC2, dx and dy by the same unnormalised Scharr kernel, exact in 16 bits): identical
+// values, without computing the kernel a second time.
+double weakest_gradient_of_derivatives(const cv::Mat& deriv, double x, double y, int window) {
+  const PatchSpan p = interior_patch(deriv.cols, deriv.rows, x, y, window);
+  std::int64_t s11 = 0, s12 = 0, s22 = 0;
+  int count = 0;
+  for (int v = p.v_lo; v <= p.v_hi; ++v) {
+    const cv::Vec2s* row = deriv.ptr<cv::Vec2s>(v);
+    for (int u = p.u_lo; u <= p.u_hi; ++u) {
+      const int gx = row[u][0], gy = row[u][1];
+      s11 += gx * gx;
+      s12 += gx * gy;
+      s22 += gy * gy;
+      ++count;
+    }
+  }
+  return weakest_from_tensor(s11, s12, s22, count);
+}
+
+}  // namespace
+
 double weakest_gradient(const Image& gray, double x, double y, int window) {
   if (gray.empty() || gray.channels != 1 || gray.type != PixelType::kU8) {
     throw std::invalid_argument("weakest_gradient: an 8-bit grey image is required");
   }
-  const int half = std::max(window, 1) / 2;
-  const int u0 = static_cast<int>(std::lround(x)), v0 = static_cast<int>(std::lround(y));
   // Scharr's kernel over interior pixels, divided by its weight (32): grey levels per pixel.
-  const int u_lo = std::max(1, u0 - half), u_hi = std::min(gray.width - 2, u0 + half);
-  const int v_lo = std::max(1, v0 - half), v_hi = std::min(gray.height - 2, v0 + half);
+  const PatchSpan p = interior_patch(gray.width, gray.height, x, y, window);
   std::int64_t s11 = 0, s12 = 0, s22 = 0;
   int count = 0;
-  for (int v = v_lo; v <= v_hi; ++v) {
+  for (int v = p.v_lo; v <= p.v_hi; ++v) {
     const std::uint8_t* up = gray.row<std::uint8_t>(v - 1);
     const std::uint8_t* mid = gray.row<std::uint8_t>(v);
     const std::uint8_t* down = gray.row<std::uint8_t>(v + 1);
-    for (int u = u_lo; u <= u_hi; ++u) {
+    for (int u = p.u_lo; u <= p.u_hi; ++u) {
       const int gx = 3 * (up[u + 1] - up[u - 1]) + 10 * (mid[u + 1] - mid[u - 1]) +
                      3 * (down[u + 1] - down[u - 1]);
       const int gy =
@@ -347,12 +389,7 @@ double weakest_gradient(const Image& gray, double x, double y, int window) {
       ++count;
     }
   }
-  if (count == 0) return 0.0;
-  const double norm = 1.0 / (32.0 * 32.0 * count);
-  const double a11 = static_cast<double>(s11) * norm, a12 = static_cast<double>(s12) * norm,
-               a22 = static_cast<double>(s22) * norm;
-  const double lmin = 0.5 * (a11 + a22 - std::sqrt((a11 - a22) * (a11 - a22) + 4.0 * a12 * a12));
-  return std::sqrt(std::max(lmin, 0.0));
+  return weakest_from_tensor(s11, s12, s22, count);
 }
 
 std::vector<int> flow_windows(const Image& cur_gray, const std::vector<Vec2>& points,
@@ -364,6 +401,20 @@ std::vector<int> flow_windows(const Image& cur_gray, const std::vector<Vec2>& po
   }
   for (std::size_t i = 0; i < points.size(); ++i) {
     if (weakest_gradient(cur_gray, points[i].x(), points[i].y(), opt.lk_window) < opt.dim_texture) {
+      out[i] = opt.lk_window_dim;
+    }
+  }
+  return out;
+}
+
+std::vector<int> flow_windows(const FlowPyramid& cur, const std::vector<Vec2>& points,
+                              const DynamicFilterOptions& opt) {
+  std::vector<int> out(points.size(), opt.lk_window);
+  if (opt.lk_window_dim <= 0 || cur.empty()) return out;
+  const cv::Mat& deriv = cur.levels->pyramid.at(1);  // level 0's, after the image
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    if (weakest_gradient_of_derivatives(deriv, points[i].x(), points[i].y(), opt.lk_window) <
+        opt.dim_texture) {
       out[i] = opt.lk_window_dim;
     }
   }
@@ -454,9 +505,15 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
   if (n == 0 || opt.mode == FilterMode::kOff) return out;
 
   const bool use_boxes = opt.mode != FilterMode::kGeometryOnly;
-  const std::vector<int> windows =
-      in.cur_gray ? flow_windows(*in.cur_gray, in.points, opt) : std::vector<int>(n, opt.lk_window);
   const bool use_geometry = opt.mode != FilterMode::kDetectionOnly;
+  // The current frame's pyramid comes first where the flow needs it: its level-0 derivatives
+  // give each feature's texture (flow_windows) without a second pass over the patches.
+  const bool grey_pair = in.prev_gray && in.cur_gray;
+  const FlowPyramid cur_pyr =
+      use_geometry && grey_pair ? build_flow_pyramid(*in.cur_gray, opt) : FlowPyramid{};
+  const std::vector<int> windows = !cur_pyr.empty() ? flow_windows(cur_pyr, in.points, opt)
+                                   : in.cur_gray    ? flow_windows(*in.cur_gray, in.points, opt)
+                                                    : std::vector<int>(n, opt.lk_window);
 
   // Which boxes hold each feature (a feature may sit in two overlapping boxes).
   std::vector<std::vector<int>> boxes_of(n);
@@ -554,10 +611,9 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
 
   // 1. Flow from the current frame back to the previous one, forward-backward checked, on
   // pyramids built once per image (the previous one usually comes from the call before).
-  if (!in.prev_gray || !in.cur_gray) {
+  if (!grey_pair) {
     throw std::invalid_argument("classify_features: prev_gray and cur_gray are required");
   }
-  const FlowPyramid cur_pyr = build_flow_pyramid(*in.cur_gray, opt);
   const FlowPyramid prev_pyr = in.prev_pyramid && !in.prev_pyramid->empty() &&
                                        in.prev_pyramid->levels->built_from(
                                            *in.prev_gray, pyramid_window(opt), pyramid_levels(opt))

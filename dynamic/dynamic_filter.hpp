@@ -326,6 +326,10 @@ double weakest_gradient(const Image& gray, double x, double y, int window);
 // lk_window_dim where the point's patch is faint (DynamicFilterOptions::dim_texture).
 std::vector<int> flow_windows(const Image& cur_gray, const std::vector<Vec2>& points,
                               const DynamicFilterOptions& opt);
+// The same from the image's flow pyramid (build_flow_pyramid), whose level-0 derivatives are
+// the Scharr gradients weakest_gradient computes: the same windows at about half the cost.
+std::vector<int> flow_windows(const FlowPyramid& cur, const std::vector<Vec2>& points,
+                              const DynamicFilterOptions& opt);
 
 // The flow on the half-resolution image (DynamicFilterOptions, lk_window): 9 px window on
 // level 1, 2 levels above it, 10 iterations to 0.1 px. A quarter of the seed flow's cost.

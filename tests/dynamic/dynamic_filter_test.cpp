@@ -168,6 +168,31 @@ TEST(DynamicFilter, FaintPatchesTakeTheWiderFlowWindow) {
   EXPECT_GE(d.kept, 90.0);
 }
 
+// classify_features measures each patch's texture on the flow pyramid's own derivatives: the
+// windows must be those the image gives, at the borders too and on a dim picture.
+TEST(DynamicFilter, PyramidTextureGivesTheImagesWindows) {
+  const Scene s = make_scene({0.02, 0, 0}, {0, -0.05, 0});
+  cv::Mat dim_cur;
+  s.cur.convertTo(dim_cur, CV_8U, 0.35, 12.0);
+  std::vector<Vec2> points = s.points;
+  const double w = s.cur.cols - 1, h = s.cur.rows - 1;
+  for (const Vec2& p : {Vec2(0, 0), Vec2(w, h), Vec2(0, h), Vec2(w, 0), Vec2(1.4, 7.6),
+                        Vec2(w - 2.5, 3.2), Vec2(0.5 * w, h - 0.4)}) {
+    points.push_back(p);
+  }
+  DynamicFilterOptions opt;
+  for (const cv::Mat& m : {s.cur, dim_cur}) {
+    const Image im = to_image(m);
+    const FlowPyramid pyr = build_flow_pyramid(im, opt);
+    for (const double dim_texture : {2.0, opt.dim_texture, 12.0, 30.0}) {
+      opt.dim_texture = dim_texture;
+      const std::vector<int> from_image = flow_windows(im, points, opt);
+      EXPECT_EQ(flow_windows(pyr, points, opt), from_image) << "dim_texture " << dim_texture;
+      EXPECT_GT(std::count(from_image.begin(), from_image.end(), opt.lk_window_dim), 0);
+    }
+  }
+}
+
 TEST(DynamicFilter, TranslatingCameraMoverAcrossEpipolarLines) {
   // Camera slides right; epipolar lines are horizontal; the mover goes up.
   const Scene s = make_scene({0.02, 0, 0}, {0, -0.05, 0});
