@@ -119,8 +119,9 @@ nlohmann::json bench_dynamic(const AreaOptions& o) {
   std::printf(
       "| scene | mode | dynamic removed | static kept | away from outlines: removed / kept | on "
       "the "
-      "unknown mover | dynamic features | static features | filter ms p50 |\n"
-      "|---|---|---|---|---|---|---|---|---|\n");
+      "unknown mover | dynamic features | static features | filter ms p50 | filter CPU ms p50 "
+      "|\n"
+      "|---|---|---|---|---|---|---|---|---|---|\n");
   detect::YoloFastestOptions pipeline_yolo;
   pipeline_yolo.model = detect::kPipelineYoloModel;
   detect::YoloFastest yolo(detect::find_models_dir(), pipeline_yolo);
@@ -185,12 +186,14 @@ nlohmann::json bench_dynamic(const AreaOptions& o) {
       const dynamic::RemovalCounts& c = res.counts;
       const double unknown_pct = on_unknown ? 100.0 * unknown_removed / on_unknown : 0.0;
       const double ms = res.filter_ms.empty() ? 0.0 : median_of(res.filter_ms);
+      const double cpu_ms = res.filter_cpu_ms.empty() ? 0.0 : median_of(res.filter_cpu_ms);
       char unknown_cell[64];
       std::snprintf(unknown_cell, sizeof unknown_cell, "%.1f%% (%zu)", unknown_pct, on_unknown);
-      std::printf("| %s | %s | %.1f%% | %.1f%% | %.1f%% / %.1f%% | %s | %zu | %zu | %.2f |\n",
-                  name.c_str(), row.name, c.removed_percent(), c.kept_percent(),
-                  c.removed_away_from_outlines_percent(), c.kept_away_from_outlines_percent(),
-                  unknown_cell, c.dynamic_total, c.static_total, ms);
+      std::printf(
+          "| %s | %s | %.1f%% | %.1f%% | %.1f%% / %.1f%% | %s | %zu | %zu | %.2f | %.2f |\n",
+          name.c_str(), row.name, c.removed_percent(), c.kept_percent(),
+          c.removed_away_from_outlines_percent(), c.kept_away_from_outlines_percent(), unknown_cell,
+          c.dynamic_total, c.static_total, ms, cpu_ms);
       reason_lines.push_back("| " + name + " | " + row.name + " | " +
                              reasons_text(c.dynamic_missed_by_reason) + " | " +
                              reasons_text(c.static_removed_by_reason) + " |");
@@ -207,6 +210,7 @@ nlohmann::json bench_dynamic(const AreaOptions& o) {
           {"unknown_mover_features", on_unknown},
           {"unknown_mover_removed_percent", unknown_pct},
           {"filter_ms_median", ms},
+          {"filter_cpu_ms_median", cpu_ms},
           {"dynamic_missed_by_reason", reasons_json(c.dynamic_missed_by_reason)},
           {"static_removed_by_reason", reasons_json(c.static_removed_by_reason)}};
     }

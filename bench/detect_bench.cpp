@@ -17,7 +17,6 @@
 
 #include <algorithm>
 #include <chrono>
-#include <ctime>
 #include <filesystem>
 #include <opencv2/core/utility.hpp>
 #include <opencv2/dnn.hpp>
@@ -26,6 +25,7 @@
 #include <string>
 #include <vector>
 
+#include "core/thread_cpu_time.hpp"
 #include "detect/darknet_onednn.hpp"
 #include "detect/yolo_fastest.hpp"
 #include "io/cv_image.hpp"
@@ -44,12 +44,6 @@ fs::path shared_data(const std::string& rel) {
 
 const std::string kFrame = "tum_fr3/frame/rgb_1341846313.592026.png";
 constexpr int kIterations = 300;
-
-double thread_cpu_ms() {
-  timespec ts{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return static_cast<double>(ts.tv_sec) * 1e3 + static_cast<double>(ts.tv_nsec) * 1e-6;
-}
 
 // Wall and thread-CPU milliseconds of each timed iteration.
 struct Samples {

@@ -9,6 +9,7 @@
 
 #include "core/error.hpp"
 #include "core/so3.hpp"
+#include "core/thread_cpu_time.hpp"
 #include "detect/dynamic_classes.hpp"
 #include "imu/inertial_predictor.hpp"
 #include "io/cv_image.hpp"
@@ -187,6 +188,7 @@ DynamicEvalResult evaluate_dynamic_filter(const DynamicEvalScene& scene,
       r.reasons.assign(in.points.size(), dynamic::LabelReason::kStaticGeometry);
     } else {
       const auto t0 = std::chrono::steady_clock::now();
+      const double cpu0 = thread_cpu_ms();
       set_prev(in, std::max(options.gap, 1));
       dynamic::FlowPyramid cur_pyramid;
       in.prev_pyramid = &last_pyramid;
@@ -204,6 +206,7 @@ DynamicEvalResult evaluate_dynamic_filter(const DynamicEvalScene& scene,
       }
       out.filter_ms.push_back(
           std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+      out.filter_cpu_ms.push_back(thread_cpu_ms() - cpu0);
     }
     out.counts += dynamic::count_removal(in.points, r.labels, f.mask, &r.reasons);
     if (options.on_frame) options.on_frame(f, in, r);

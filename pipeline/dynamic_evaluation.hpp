@@ -80,7 +80,8 @@ struct DynamicEvalOptions {
 
 struct DynamicEvalResult {
   dynamic::RemovalCounts counts;
-  std::vector<double> filter_ms;  // per frame
+  std::vector<double> filter_ms;      // per frame, wall clock
+  std::vector<double> filter_cpu_ms;  // per frame, the thread's CPU time (core/thread_cpu_time)
 };
 
 // Runs the filter frame after frame, each frame against the previous one (or the one `gap`
