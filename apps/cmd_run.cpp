@@ -37,7 +37,7 @@ struct RunFlags {
   bool no_loop = false;
   bool triangulate = true;
   bool half_resolution_flow = false;
-  double flow_skip_gate_px = 0.0;
+  double flow_skip_gate_px = -1.0;  // unset: the filter's default
   bool inertial_ba = false;
   bool no_gyro_prior = false;
   bool no_depth_carry = false;
@@ -247,7 +247,7 @@ void setup_run(CLI::App& app) {
                 "the dynamic filter's flow on the half-resolution image: a quarter of the cost");
   cmd->add_option("--imu-vouched-flow", flags->flow_skip_gate_px,
                   "PX: no backward flow check for a forward flow that ends within PX of where the "
-                  "IMU's motion puts the point (about 1 ms a frame; off by default)")
+                  "IMU's motion puts the point (default 2; 0: every flow checked backward)")
       ->check(CLI::Range(0.0, 10.0));
   cmd->add_flag("--realtime", flags->realtime,
                 "as a live sensor: frames fed at their stamps' pace, threads run free (detection "

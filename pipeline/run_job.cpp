@@ -181,7 +181,7 @@ RunSummary run_sequence(io::MeasurementSource& source, const RunOptions& options
   if (!options.loop_closing) sys_opt.vocabulary.clear();
   sys_opt.tracker.triangulate = options.triangulate;
   if (options.half_resolution_flow) dynamic::use_half_resolution_flow(sys_opt.dynamic);
-  if (options.flow_skip_gate_px > 0.0) sys_opt.dynamic.fb_skip_gate_px = options.flow_skip_gate_px;
+  if (options.flow_skip_gate_px >= 0.0) sys_opt.dynamic.fb_skip_gate_px = options.flow_skip_gate_px;
   sys_opt.inertial_ba = options.inertial_ba;
   sys_opt.gyro_rotation_prior = options.gyro_rotation_prior;
   sys_opt.depth_carry = options.depth_carry;

@@ -33,7 +33,7 @@ struct RunOptions {
   bool loop_closing = true;
   bool triangulate = true;            // TrackerOptions::triangulate
   bool half_resolution_flow = false;  // dynamic::use_half_resolution_flow
-  double flow_skip_gate_px = 0.0;     // DynamicFilterOptions::fb_skip_gate_px (0: unchanged)
+  double flow_skip_gate_px = -1.0;    // DynamicFilterOptions::fb_skip_gate_px (<0: unchanged)
   bool inertial_ba = false;           // SystemOptions::inertial_ba
   bool gyro_rotation_prior = true;    // SystemOptions::gyro_rotation_prior
   bool depth_carry = true;            // SystemOptions::depth_carry
