@@ -247,7 +247,7 @@ void setup_run(CLI::App& app) {
                 "the dynamic filter's flow on the half-resolution image: a quarter of the cost");
   cmd->add_option("--imu-vouched-flow", flags->flow_skip_gate_px,
                   "PX: no backward flow check for a forward flow that ends within PX of where the "
-                  "IMU's motion puts the point (default 2; 0: every flow checked backward)")
+                  "IMU's motion puts the point (off by default)")
       ->check(CLI::Range(0.0, 10.0));
   cmd->add_flag("--realtime", flags->realtime,
                 "as a live sensor: frames fed at their stamps' pace, threads run free (detection "
