@@ -392,33 +392,40 @@ double weakest_gradient(const Image& gray, double x, double y, int window) {
   return weakest_from_tensor(s11, s12, s22, count);
 }
 
-std::vector<int> flow_windows(const Image& cur_gray, const std::vector<Vec2>& points,
-                              const DynamicFilterOptions& opt) {
+namespace {
+
+// lk_window_dim where `texture(x, y)` (weakest_gradient over the lk_window patch) is below
+// dim_texture, lk_window elsewhere.
+template <class Texture>
+std::vector<int> windows_by_texture(const std::vector<Vec2>& points,
+                                    const DynamicFilterOptions& opt, Texture texture) {
   std::vector<int> out(points.size(), opt.lk_window);
-  if (opt.lk_window_dim <= 0 || cur_gray.empty() || cur_gray.channels != 1 ||
-      cur_gray.type != PixelType::kU8) {
-    return out;
-  }
   for (std::size_t i = 0; i < points.size(); ++i) {
-    if (weakest_gradient(cur_gray, points[i].x(), points[i].y(), opt.lk_window) < opt.dim_texture) {
-      out[i] = opt.lk_window_dim;
-    }
+    if (texture(points[i].x(), points[i].y()) < opt.dim_texture) out[i] = opt.lk_window_dim;
   }
   return out;
 }
 
+}  // namespace
+
+std::vector<int> flow_windows(const Image& cur_gray, const std::vector<Vec2>& points,
+                              const DynamicFilterOptions& opt) {
+  if (opt.lk_window_dim <= 0 || cur_gray.empty() || cur_gray.channels != 1 ||
+      cur_gray.type != PixelType::kU8) {
+    return std::vector<int>(points.size(), opt.lk_window);
+  }
+  return windows_by_texture(points, opt, [&](double x, double y) {
+    return weakest_gradient(cur_gray, x, y, opt.lk_window);
+  });
+}
+
 std::vector<int> flow_windows(const FlowPyramid& cur, const std::vector<Vec2>& points,
                               const DynamicFilterOptions& opt) {
-  std::vector<int> out(points.size(), opt.lk_window);
-  if (opt.lk_window_dim <= 0 || cur.empty()) return out;
+  if (opt.lk_window_dim <= 0 || cur.empty()) return std::vector<int>(points.size(), opt.lk_window);
   const cv::Mat& deriv = cur.levels->pyramid.at(1);  // level 0's, after the image
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    if (weakest_gradient_of_derivatives(deriv, points[i].x(), points[i].y(), opt.lk_window) <
-        opt.dim_texture) {
-      out[i] = opt.lk_window_dim;
-    }
-  }
-  return out;
+  return windows_by_texture(points, opt, [&](double x, double y) {
+    return weakest_gradient_of_derivatives(deriv, x, y, opt.lk_window);
+  });
 }
 
 const char* to_string(LabelReason r) {
