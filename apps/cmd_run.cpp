@@ -41,6 +41,7 @@ struct RunFlags {
   bool inertial_ba = false;
   bool no_gyro_prior = false;
   bool no_depth_carry = false;
+  bool no_corner_tracks = false;
   bool no_park = false;
   bool realtime = false;
   int max_in_flight = 2;
@@ -168,7 +169,13 @@ std::string fmt_1(double v) {
 void print_summary(const char* name, const RunSummary& s) {
   std::printf("%s: %zu frames, ", name, s.frames);
   if (s.dropped > 0) std::printf("%zu dropped while the tracker was busy, ", s.dropped);
-  std::printf("%zu tracked, %zu lost", s.tracked, s.lost);
+  std::printf("%zu tracked", s.tracked);
+  if (s.frame_to_frame > 0) {
+    std::printf(
+        " (%zu of them frame to frame: lost to the map, their step fixed by depth and corners)",
+        s.frame_to_frame);
+  }
+  std::printf(", %zu lost", s.lost);
   if (s.depth_imu > 0) {
     std::printf(" (%zu of them aligned by depth with the IMU, %zu carried by the IMU alone)",
                 s.depth_imu, s.inertial_only);
@@ -239,6 +246,9 @@ void setup_run(CLI::App& app) {
                 "visual-inertial local BA: keyframes joined by the IMU's pre-integration");
   cmd->add_flag("--no-depth-carry", flags->no_depth_carry,
                 "frames features cannot track are carried by the IMU alone, not aligned by depth");
+  cmd->add_flag("--no-corner-tracks", flags->no_corner_tracks,
+                "depth carries the frames features cannot track without corners followed from the "
+                "frame before (the IMU keeps the directions one plane's depth leaves open)");
   cmd->add_flag("--no-gyro-prior", flags->no_gyro_prior,
                 "no gyro rotation prior in the per-frame pose optimization");
   cmd->add_flag("--no-park", flags->no_park,
@@ -304,6 +314,7 @@ void setup_run(CLI::App& app) {
     opt.inertial_ba = flags->inertial_ba;
     opt.gyro_rotation_prior = !flags->no_gyro_prior;
     opt.depth_carry = !flags->no_depth_carry;
+    opt.corner_tracks = !flags->no_corner_tracks;
     opt.park_vehicles = !flags->no_park;
     const RunSummary summary = kestrel::pipeline::run_sequence(*source, opt);
     print_summary("run", summary);

@@ -185,6 +185,7 @@ RunSummary run_sequence(io::MeasurementSource& source, const RunOptions& options
   sys_opt.inertial_ba = options.inertial_ba;
   sys_opt.gyro_rotation_prior = options.gyro_rotation_prior;
   sys_opt.depth_carry = options.depth_carry;
+  sys_opt.corner_tracks = options.corner_tracks;
   sys_opt.park_vehicles = options.park_vehicles;
   // With ground truth, the run's world is the truth's (nearest pose within 20 ms of the first
   // frame), so maps and objects can be scored against it; APE aligns anyway.
@@ -275,6 +276,9 @@ RunSummary run_sequence(io::MeasurementSource& source, const RunOptions& options
   if (auto it = counters.find("frames.depth_imu"); it != counters.end()) {
     summary.depth_imu = it->second;
   }
+  if (auto it = counters.find("frames.frame_to_frame"); it != counters.end()) {
+    summary.frame_to_frame = it->second;
+  }
   summary.tracked = traj.size() - std::min(traj.size(), summary.inertial_only);
   summary.removal = system.removal();
   const auto stages = system.stats().summaries();
@@ -349,6 +353,7 @@ std::string summary_json(const RunSummary& s) {
   j["lost"] = s.lost;
   j["inertial_only"] = s.inertial_only;
   j["depth_imu"] = s.depth_imu;
+  j["frame_to_frame"] = s.frame_to_frame;
   j["ape_rmse_m"] = s.ape_rmse_m;
   j["ape_pairs"] = s.ape_pairs;
   if (s.has_truth_masks) {

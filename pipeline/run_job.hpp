@@ -37,6 +37,7 @@ struct RunOptions {
   bool inertial_ba = false;           // SystemOptions::inertial_ba
   bool gyro_rotation_prior = true;    // SystemOptions::gyro_rotation_prior
   bool depth_carry = true;            // SystemOptions::depth_carry
+  bool corner_tracks = true;          // SystemOptions::corner_tracks
   bool park_vehicles = true;          // SystemOptions::park_vehicles
   std::string out_dir;                // trajectory.txt, timing.json, summary.json
   std::string models_dir;             // "" = find ../shared/models
@@ -77,9 +78,10 @@ struct RunSummary {
   std::size_t dropped = 0;  // live: frames not fed because the tracker was busy (no pose)
   std::size_t tracked = 0;  // frames with a visual pose
   std::size_t lost = 0;
-  std::size_t inertial_only = 0;  // lost frames whose pose the IMU carried (in the trajectory)
-  std::size_t depth_imu = 0;      // lost frames aligned by depth with the IMU's prior (trajectory)
-  double ape_rmse_m = -1.0;       // -1 without ground truth
+  std::size_t inertial_only = 0;   // lost frames whose pose the IMU carried (in the trajectory)
+  std::size_t depth_imu = 0;       // lost frames aligned by depth with the IMU's prior (trajectory)
+  std::size_t frame_to_frame = 0;  // lost to the map, its step from the frame before fixed by depth
+  double ape_rmse_m = -1.0;        // -1 without ground truth
   std::size_t ape_pairs = 0;
   dynamic::RemovalCounts removal;
   bool has_truth_masks = false;

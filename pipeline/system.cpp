@@ -100,6 +100,8 @@ const char* to_string(PoseSource s) {
       return "imu";
     case PoseSource::kDepthImu:
       return "depth-imu";
+    case PoseSource::kFrameToFrame:
+      return "frame-to-frame";
   }
   return "?";
 }
@@ -219,7 +221,9 @@ struct System::Impl {
   Timestamp imu_fed_until = 0;   // predictor has the IMU up to here
   Timestamp last_bridge_t = -1;  // the latest bridge (TrackResult::bridged, not a restart)
   std::size_t inertial_frames = 0;
-  std::size_t depth_frames = 0;         // lost to features, carried by depth and the IMU
+  std::size_t depth_frames = 0;  // lost to features, carried by depth and the IMU
+  // Lost to the map, their step from the frame before fixed by depth and corners: not lost.
+  std::size_t frame_to_frame_frames = 0;
   std::size_t depth_carry_refused = 0;  // alignments that moved the IMU's motion too far
   Timestamp last_vision_t = 0;          // stamp of the last frame features tracked
   // Vision's disagreement with the IMU (prior_chi2) over the last frames features tracked.
@@ -419,37 +423,61 @@ struct System::Impl {
            options.gyro_prior_relative_sigma * angle;
   }
 
-  // The pose of a frame features lost, by aligning its depth to the previous frame's with the
-  // IMU's motion since then as the prior (SystemOptions::depth_carry); none when depth cannot.
-  std::optional<SE3> depth_carry(const RgbdFrame& frame, const Image& ref_depth, double ref_scale,
-                                 const SE3& predicted_T_w_c, Timestamp t_prev,
-                                 const std::vector<dynamic::BoxRegion>& boxes) {
-    if (!options.depth_carry || frame.depth.empty() || ref_depth.empty() || !prev_T_w_c ||
-        last_vision_t == 0 || t_prev <= 0 || frame.t <= t_prev ||
+  // Whether a frame features lost may be carried from the one before with the IMU's motion as
+  // the prior (depth_carry below).
+  bool may_carry(const RgbdFrame& frame, const Image& ref_depth, Timestamp t_prev) const {
+    if (frame.depth.empty() || ref_depth.empty() || !prev_T_w_c || last_vision_t == 0 ||
+        t_prev <= 0 || frame.t <= t_prev ||
         frame.t - last_vision_t > from_seconds(options.depth_carry_max_s)) {
-      return std::nullopt;
+      return false;
     }
     // The IMU's attitude and velocity must have agreed with vision before the loss: its
     // motion is all depth leaves unseen, and a wrong attitude turns gravity into an
     // acceleration the fixes would then carry on (uav-zigzag, 29 s, vision 8 degrees off and at
     // odds with the IMU: 5 m in 3 s, 13.6 m APE).
-    if (recent_imu_chi2.size() < recent_imu_chi2_frames) return std::nullopt;
+    if (recent_imu_chi2.size() < recent_imu_chi2_frames) return false;
     std::vector<double> chi2(recent_imu_chi2.begin(), recent_imu_chi2.end());
     std::nth_element(chi2.begin(), chi2.begin() + chi2.size() / 2, chi2.end());
-    if (chi2[chi2.size() / 2] > options.depth_carry_max_imu_chi2) return std::nullopt;
+    return chi2[chi2.size() / 2] <= options.depth_carry_max_imu_chi2;
+  }
+
+  static std::vector<tracking::PixelBox> mover_boxes(const std::vector<dynamic::BoxRegion>& boxes) {
+    std::vector<tracking::PixelBox> movers;
+    for (const auto& b : boxes) {
+      if (!b.parked) movers.push_back({b.x_min, b.y_min, b.x_max, b.y_max});
+    }
+    return movers;
+  }
+
+  // The pose of a frame features lost, by aligning its depth to the previous frame's, with
+  // corners followed from it (SystemOptions::corner_tracks) and the IMU's motion since then as
+  // the prior (SystemOptions::depth_carry); none when depth cannot.
+  struct Carried {
+    SE3 T_w_c;
+    bool six_dof = false;  // depth and corner tracks fixed every direction, not the IMU
+  };
+
+  std::optional<Carried> depth_carry(const RgbdFrame& frame, const Image& ref_gray,
+                                     const Image& cur_gray, const Image& ref_depth,
+                                     double ref_scale, const SE3& predicted_T_w_c, Timestamp t_prev,
+                                     const std::vector<dynamic::BoxRegion>& boxes) {
+    if (!options.depth_carry || !may_carry(frame, ref_depth, t_prev)) return std::nullopt;
     const auto t0 = Clock::now();
+    const std::vector<tracking::PixelBox> movers = mover_boxes(boxes);
+    tracking::CornerTracks corners;
+    if (options.corner_tracks && !ref_gray.empty()) {
+      corners = tracking::follow_corners(ref_gray, ref_depth, ref_scale, cur_gray, calib.camera,
+                                         options.corner_track_options, movers);
+      stats.record("corner_tracks", ms_since(t0));
+    }
     tracking::DepthAlignmentPrior prior;
     prior.T_ref_cur = prev_T_w_c->inverse() * predicted_T_w_c;
     const double dt = to_seconds(frame.t - t_prev);
     prior.rotation_sigma = gyro_prior_sigma(dt, prior.T_ref_cur.so3().angle());
     prior.translation_sigma = options.depth_carry_translation_sigma;
-    std::vector<tracking::PixelBox> movers;
-    for (const auto& b : boxes) {
-      if (!b.parked) movers.push_back({b.x_min, b.y_min, b.x_max, b.y_max});
-    }
     const tracking::DepthAlignmentResult r =
         tracking::align_depth(ref_depth, ref_scale, frame.depth, frame.depth_scale, calib.camera,
-                              prior, options.depth_alignment, movers);
+                              prior, options.depth_alignment, movers, corners.tracks);
     stats.record("depth_carry", ms_since(t0));
     if (!r.ok) return std::nullopt;
     // How far depth moved the IMU's motion, in the prior's sigmas: far means a mover.
@@ -462,7 +490,8 @@ struct System::Impl {
       ++depth_carry_refused;
       return std::nullopt;
     }
-    return *prev_T_w_c * r.T_ref_cur;
+    return Carried{*prev_T_w_c * r.T_ref_cur,
+                   r.weakest_information >= options.frame_to_frame_min_information};
   }
 
   // Vision's disagreement with the IMU's prediction, in the prediction's own sigmas.
@@ -801,6 +830,7 @@ struct System::Impl {
       std::lock_guard<std::mutex> lock(imu_mutex);
       imu.drop_before(frame.t - kSecond);
     }
+    const Image ref_gray = prev_gray;  // shared pixels, for the corner tracks of depth carry
     prev_gray = gray;
     prev_pyramid = std::move(cur_pyramid);
     const Image ref_depth = prev_depth;  // the previous frame's, for depth carry
@@ -917,12 +947,17 @@ struct System::Impl {
                                           : PoseSource::kVision;
     }
     std::optional<SE3> depth_T_w_c;
+    bool six_dof = false;
     if (tr.state == tracking::TrackingState::kLost && predicted) {
-      depth_T_w_c = depth_carry(frame, ref_depth, ref_depth_scale, *predicted, frame_t_prev, boxes);
+      if (const auto c = depth_carry(frame, ref_gray, gray, ref_depth, ref_depth_scale, *predicted,
+                                     frame_t_prev, boxes)) {
+        depth_T_w_c = c->T_w_c;
+        six_dof = c->six_dof;
+      }
     }
     if (depth_T_w_c) {
       report.T_w_body = *depth_T_w_c * calib.T_body_camera.inverse();
-      report.source = PoseSource::kDepthImu;
+      report.source = six_dof ? PoseSource::kFrameToFrame : PoseSource::kDepthImu;
       predictor.add_fix(frame.t, report.T_w_body);
     } else if (tr.state == tracking::TrackingState::kLost && predicted) {
       // Lost, but the IMU still knows where the body is (for max_gap_s).
@@ -956,9 +991,10 @@ struct System::Impl {
     }
     {
       std::lock_guard<std::mutex> lock(result_mutex);
-      if (tr.state == tracking::TrackingState::kLost) ++lost;
+      if (tr.state == tracking::TrackingState::kLost && !six_dof) ++lost;
       if (report.inertial_only) ++inertial_frames;
-      if (depth_T_w_c) ++depth_frames;
+      if (depth_T_w_c && !six_dof) ++depth_frames;
+      if (six_dof) ++frame_to_frame_frames;
       if (tr.bridged) ++bridged;
       if (tr.restarted) ++restarted;
       if (tr.prior_conflict) ++prior_conflicts;
@@ -1263,6 +1299,7 @@ void System::finish() {
   impl_->stats.set_counter("frames.lost", frames_lost());
   impl_->stats.set_counter("frames.inertial_only", impl_->inertial_frames);
   impl_->stats.set_counter("frames.depth_imu", impl_->depth_frames);
+  impl_->stats.set_counter("frames.frame_to_frame", impl_->frame_to_frame_frames);
   impl_->stats.set_counter("frames.depth_carry_refused", impl_->depth_carry_refused);
   impl_->stats.set_counter("tracking.bridged", impl_->bridged);
   impl_->stats.set_counter("tracking.restarted", impl_->restarted);

@@ -34,6 +34,11 @@ struct DepthAlignmentOptions {
   // a millimetre or a milliradian.
   double min_information = 1e6;
   double max_rms_sigmas = 3.0;  // RMS of the correspondences' residuals, in depth sigmas
+  // Corner tracks (below): their pixel sigma, the residual beyond which a track is not the
+  // same point (a mover, a corner LK slid off), and the one within which it counts as an inlier.
+  double track_pixel_sigma = 1.0;
+  double track_max_px = 4.0;
+  double track_inlier_px = 2.0;
 };
 
 struct DepthAlignmentPrior {
@@ -47,6 +52,14 @@ struct PixelBox {
   double x_min = 0, y_min = 0, x_max = 0, y_max = 0;
 };
 
+// A corner of the reference frame, its point from the reference's depth (metres, reference
+// camera), found again in the current image at uv_cur (undistorted pixels):
+// tracking/corner_tracks.hpp. A reprojection constraint on all six directions of the step.
+struct CornerTrack {
+  Vec3 p_ref = Vec3::Zero();
+  Vec2 uv_cur = Vec2::Zero();
+};
+
 struct DepthAlignmentResult {
   bool ok = false;
   SE3 T_ref_cur;   // the prior's pose when !ok
@@ -55,13 +68,21 @@ struct DepthAlignmentResult {
   // Directions depth constrained: the smallest eigenvalue of the data's 3x3 translation
   // information, in 1/m^2 (a single plane leaves two directions near zero).
   double weakest_translation_information = 0.0;
+  int track_inliers = 0;  // corner tracks within track_inlier_px of the final pose
+  // The smallest eigenvalue of what depth and the corner tracks know of the step, without the
+  // prior (6x6 information of [rotation rad, translation m]; 1e6: a milliradian or a
+  // millimetre in the weakest direction). Under min_information the prior held a direction.
+  double weakest_information = 0.0;
 };
 
-// depth images are 16-bit (value / scale = metres), of the same size as the camera.
+// depth images are 16-bit (value / scale = metres), of the same size as the camera. Corner
+// tracks, when given, weigh in beside the depth (Huber at twice their sigma): along a bare
+// wall they fix what depth leaves to the prior.
 DepthAlignmentResult align_depth(const Image& ref_depth, double ref_scale, const Image& cur_depth,
                                  double cur_scale, const PinholeCamera& camera,
                                  const DepthAlignmentPrior& prior,
                                  const DepthAlignmentOptions& options = {},
-                                 const std::vector<PixelBox>& exclude = {});
+                                 const std::vector<PixelBox>& exclude = {},
+                                 const std::vector<CornerTrack>& tracks = {});
 
 }  // namespace kestrel::tracking

@@ -89,6 +89,7 @@ TEST(DepthAlignment, RecoversTheMotionWhereDepthSeesEveryDirection) {
   EXPECT_LT((T_w_est.translation() - c.T_w_cur.translation()).norm(), 0.003);
   EXPECT_LT((T_w_est.so3() * c.T_w_cur.so3().inverse()).log().norm(), 1e-3);
   EXPECT_GT(r.weakest_translation_information, 1e6);
+  EXPECT_GT(r.weakest_information, DepthAlignmentOptions{}.min_information);
   EXPECT_LT(r.rms_sigmas, 2.0);
 }
 
@@ -109,6 +110,7 @@ TEST(DepthAlignment, OnABareWallCorrectsOnlyTheDistance) {
   // Along the wall depth knows far less than across it (a few centimetres against a fraction of
   // a millimetre).
   EXPECT_LT(r.weakest_translation_information, 1e4);
+  EXPECT_LT(r.weakest_information, DepthAlignmentOptions{}.min_information);
 }
 
 // A mover's depth moves on its own: its box is left out. Here the right fifth of the current view
