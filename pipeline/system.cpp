@@ -207,6 +207,7 @@ struct System::Impl {
   Timestamp gyro_t = 0;
   std::optional<SE3> prev_T_w_c;      // the previous frame's camera pose: tracked, or the IMU's
   bool prev_tracked = false;          // ... and it was tracked by vision
+  bool prev_frame_to_frame = false;   // ... or frame to frame (PoseSource::kFrameToFrame)
   std::optional<Vec3> predicted_v_w;  // the body velocity of this frame's IMU prediction
   bool inertial = false;              // IMU used at all (wait, gyro for the filter, prediction)
   bool imu_missing = false;      // under imu_mutex: the calibration has an IMU, the stream none
@@ -875,6 +876,7 @@ struct System::Impl {
     // every frame: that search is what let latency pile up to seconds on long market runs.
     // Lock-step runs have all the time they need (and stay reproducible).
     tracker.set_busy(!options.sequential && frames.size() > 0);
+    tracker.set_hold_bridge(prev_frame_to_frame && options.frame_to_frame_holds_bridge);
     t0 = Clock::now();
     const tracking::TrackResult tr =
         prior && (options.inertial_prior || options.inertial_gate_chi2 > 0.0)
@@ -965,6 +967,7 @@ struct System::Impl {
       report.inertial_only = true;
       report.source = PoseSource::kImu;
     }
+    prev_frame_to_frame = six_dof;
     prev_tracked = (tr.state == tracking::TrackingState::kOk ||
                     tr.state == tracking::TrackingState::kRelocalized) &&
                    !tr.bridged;

@@ -127,11 +127,13 @@ TrackResult Tracker::track(FrameFeatures f, const std::optional<SE3>& predicted,
   }
   if (state_ == TrackingState::kInitializing) {
     busy_ = false;  // set_busy() holds for one track(), this one
+    hold_bridge_ = false;
     TrackResult r = initialize(std::move(f), predicted);
     r.times.total_ms = ms_since(t0);
     return r;
   }
   const bool busy = std::exchange(busy_, false);
+  const bool hold_bridge = std::exchange(hold_bridge_, false);
 
   TrackResult res;
   const auto tm = Clock::now();
@@ -269,7 +271,7 @@ TrackResult Tracker::track(FrameFeatures f, const std::optional<SE3>& predicted,
   res.inliers = ok ? pose.inliers : 0;
   res.local_points = static_cast<int>(pts.size());
   res.visible_points = static_cast<int>(visible.size());
-  if (!ok && relocalizing && predicted && options_.bridge_after_lost_frames > 0 &&
+  if (!ok && relocalizing && predicted && !hold_bridge && options_.bridge_after_lost_frames > 0 &&
       lost_frames_ + 1 >= options_.bridge_after_lost_frames) {
     res.times.optimize_ms = optimize_ms;
     const auto tk = Clock::now();

@@ -198,6 +198,11 @@ class Tracker {
   // frame. For one track(), then cleared.
   void set_busy(bool busy) { busy_ = busy; }
 
+  // The frame before was tracked from outside the map (frame to frame, its step fixed by depth
+  // and corners): a lost track keeps looking for its map around the prediction instead of
+  // bridging to a new one at bridge_after_lost_frames. For one track(), then cleared.
+  void set_hold_bridge(bool hold) { hold_bridge_ = hold; }
+
   // Pose of the first frame (identity unless set before it).
   void set_initial_pose(const SE3& T_w_c) { initial_T_w_c_ = T_w_c; }
 
@@ -294,8 +299,9 @@ class Tracker {
   std::optional<PosePrior> rotation_prior_;  // set_rotation_prior(), for one track()
   std::optional<mapping::GyroLink> gyro_link_;
   std::optional<Vec3> body_velocity_;
-  int lost_frames_ = 0;  // frames since the track was lost
-  bool busy_ = false;    // set_busy(), for one track()
+  int lost_frames_ = 0;       // frames since the track was lost
+  bool busy_ = false;         // set_busy(), for one track()
+  bool hold_bridge_ = false;  // set_hold_bridge(), for one track()
   mapping::KeyframeId reference_kf_ = -1;
   mapping::KeyframeId last_kf_ = -1;
   std::vector<mapping::KeyframeId> culled_;  // since the last TrackResult reported them

@@ -240,6 +240,34 @@ TEST(Tracker, RelocalizationMustAgreeWithTheAttitudeHint) {
   }
 }
 
+// Lost with a prediction, the track bridges to a new local map at it after
+// bridge_after_lost_frames, unless the frame before was tracked frame to frame
+// (set_hold_bridge): then it keeps looking for its map; once no longer held, it bridges.
+TEST(Tracker, AHeldBridgeWaitsForTheMap) {
+  const PinholeCamera cam = synthetic_camera();
+  const test::SyntheticScene scene = test::SyntheticScene::office();
+  const std::vector<SE3> path = test::smooth_path(60);
+  TrackerOptions opt;
+  opt.bridge_after_lost_frames = 3;
+  Tracker tracker(cam, opt);
+  for (int i = 0; i < 20; ++i) {
+    ASSERT_EQ(tracker.track(scene.render(cam, path[static_cast<std::size_t>(i)])).state,
+              TrackingState::kOk);
+  }
+  const SE3 last = tracker.last_pose();
+  const RgbdFrame elsewhere = tum_frame();
+  for (int i = 0; i < 3 * opt.bridge_after_lost_frames; ++i) {
+    tracker.set_hold_bridge(true);
+    const TrackResult r = tracker.track(elsewhere, std::optional<SE3>(last));
+    ASSERT_EQ(r.state, TrackingState::kLost) << "frame " << i;
+    EXPECT_FALSE(r.bridged);
+  }
+  const TrackResult r = tracker.track(elsewhere, std::optional<SE3>(last));
+  EXPECT_EQ(r.state, TrackingState::kOk);
+  EXPECT_TRUE(r.bridged);
+  EXPECT_LT((r.T_w_c.translation() - last.translation()).norm(), 1e-9);
+}
+
 // Lost without any prediction, somewhere the map never saw (a real room after the synthetic
 // office): relocalization cannot succeed, so after restart_after_lost_frames the track restarts
 // at the last position, turned to the attitude hint, and goes on from there.
