@@ -24,7 +24,7 @@ void TelemetryObserver::on_frame(const pipeline::FrameReport& r) {
   {
     std::lock_guard lock(mutex_);
     ++frames_;
-    if (r.state == tracking::TrackingState::kLost) ++lost_;
+    if (r.lost()) ++lost_;
     state_ = tracking::to_string(r.state);
     dynamic_features_ = static_cast<std::uint32_t>(r.dynamic_features);
     detections_ = static_cast<std::uint32_t>(r.detections);

@@ -466,7 +466,9 @@ struct System::Impl {
     const auto t0 = Clock::now();
     const std::vector<tracking::PixelBox> movers = mover_boxes(boxes);
     tracking::CornerTracks corners;
-    if (options.corner_tracks && !ref_gray.empty()) {
+    // Corners need depth on the grey image's own pixels (a registered depth image).
+    if (options.corner_tracks && !ref_gray.empty() && ref_depth.width == ref_gray.width &&
+        ref_depth.height == ref_gray.height && ref_scale > 0.0) {
       corners = tracking::follow_corners(ref_gray, ref_depth, ref_scale, cur_gray, calib.camera,
                                          options.corner_track_options, movers);
       stats.record("corner_tracks", ms_since(t0));
@@ -994,7 +996,7 @@ struct System::Impl {
     }
     {
       std::lock_guard<std::mutex> lock(result_mutex);
-      if (tr.state == tracking::TrackingState::kLost && !six_dof) ++lost;
+      if (report.lost()) ++lost;
       if (report.inertial_only) ++inertial_frames;
       if (depth_T_w_c && !six_dof) ++depth_frames;
       if (six_dof) ++frame_to_frame_frames;

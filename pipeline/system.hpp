@@ -258,6 +258,12 @@ struct FrameReport {
   std::vector<Vec2> feature_px;
   std::vector<std::uint8_t> feature_dynamic;  // 1 = rejected as dynamic
   std::vector<dynamic::BoxRegion> boxes;      // dynamic-class detections matched to the frame
+
+  // What the camera saw did not fix the pose: the map lost it and it was not tracked frame to
+  // frame either (System::frames_lost counts these).
+  bool lost() const {
+    return state == tracking::TrackingState::kLost && source != PoseSource::kFrameToFrame;
+  }
 };
 
 // The object database after a change (DESIGN.md: observers receive map updates): every object
