@@ -879,6 +879,7 @@ struct System::Impl {
     // Lock-step runs have all the time they need (and stay reproducible).
     tracker.set_busy(!options.sequential && frames.size() > 0);
     tracker.set_hold_bridge(prev_frame_to_frame && options.frame_to_frame_holds_bridge);
+    if (prev_frame_to_frame) tracker.set_prior_gate_chi2(options.frame_to_frame_gate_chi2);
     t0 = Clock::now();
     const tracking::TrackResult tr =
         prior && (options.inertial_prior || options.inertial_gate_chi2 > 0.0)

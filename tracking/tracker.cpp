@@ -128,12 +128,15 @@ TrackResult Tracker::track(FrameFeatures f, const std::optional<SE3>& predicted,
   if (state_ == TrackingState::kInitializing) {
     busy_ = false;  // set_busy() holds for one track(), this one
     hold_bridge_ = false;
+    prior_gate_override_ = 0.0;
     TrackResult r = initialize(std::move(f), predicted);
     r.times.total_ms = ms_since(t0);
     return r;
   }
   const bool busy = std::exchange(busy_, false);
   const bool hold_bridge = std::exchange(hold_bridge_, false);
+  const double override_gate = std::exchange(prior_gate_override_, 0.0);
+  const double prior_gate = override_gate > 0.0 ? override_gate : options_.prior_gate_chi2;
 
   TrackResult res;
   const auto tm = Clock::now();
@@ -217,14 +220,14 @@ TrackResult Tracker::track(FrameFeatures f, const std::optional<SE3>& predicted,
       m = std::move(m2);
     }
   }
-  if (pose.ok && prior_ && options_.prior_gate_chi2 > 0.0) {
+  if (pose.ok && prior_ && prior_gate > 0.0) {
     auto disagreement = [&](const SE3& T_c_w) {
       const Vec6 e = (T_c_w * prior_->T_c_w.inverse()).log();
       return e.allFinite() ? double(e.transpose() * prior_->information * e)
                            : std::numeric_limits<double>::infinity();
     };
     res.prior_chi2 = disagreement(pose.T_c_w);
-    if (res.prior_chi2 > options_.prior_gate_chi2) {
+    if (res.prior_chi2 > prior_gate) {
       // Vision and the IMU disagree: a mover filling the view drags the pose along with it
       // (one walking along the optical axis even passes the epipolar test). The points that
       // project where the IMU says they should are the static ones; they decide, or nothing.
@@ -234,7 +237,7 @@ TrackResult Tracker::track(FrameFeatures f, const std::optional<SE3>& predicted,
       const auto to = Clock::now();
       PoseOptimizerResult pp = optimize(f, mp, prior_->T_c_w);
       optimize_ms += ms_since(to);
-      if (pp.ok && disagreement(pp.T_c_w) <= options_.prior_gate_chi2) {
+      if (pp.ok && disagreement(pp.T_c_w) <= prior_gate) {
         pose = pp;
         m = std::move(mp);
         visible = std::move(visible_p);

@@ -202,6 +202,8 @@ class Tracker {
   // and corners): a lost track keeps looking for its map around the prediction instead of
   // bridging to a new one at bridge_after_lost_frames. For one track(), then cleared.
   void set_hold_bridge(bool hold) { hold_bridge_ = hold; }
+  // TrackerOptions::prior_gate_chi2 for one track() (<= 0: the option's).
+  void set_prior_gate_chi2(double chi2) { prior_gate_override_ = chi2; }
 
   // Pose of the first frame (identity unless set before it).
   void set_initial_pose(const SE3& T_w_c) { initial_T_w_c_ = T_w_c; }
@@ -299,9 +301,10 @@ class Tracker {
   std::optional<PosePrior> rotation_prior_;  // set_rotation_prior(), for one track()
   std::optional<mapping::GyroLink> gyro_link_;
   std::optional<Vec3> body_velocity_;
-  int lost_frames_ = 0;       // frames since the track was lost
-  bool busy_ = false;         // set_busy(), for one track()
-  bool hold_bridge_ = false;  // set_hold_bridge(), for one track()
+  int lost_frames_ = 0;               // frames since the track was lost
+  bool busy_ = false;                 // set_busy(), for one track()
+  bool hold_bridge_ = false;          // set_hold_bridge(), for one track()
+  double prior_gate_override_ = 0.0;  // set_prior_gate_chi2(), for one track()
   mapping::KeyframeId reference_kf_ = -1;
   mapping::KeyframeId last_kf_ = -1;
   std::vector<mapping::KeyframeId> culled_;  // since the last TrackResult reported them

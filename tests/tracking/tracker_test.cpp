@@ -268,6 +268,44 @@ TEST(Tracker, AHeldBridgeWaitsForTheMap) {
   EXPECT_LT((r.T_w_c.translation() - last.translation()).norm(), 1e-9);
 }
 
+// A pose 3 cm from the IMU's prediction (chi-square 36 in its sigmas) passes the options' gate
+// of 150; with the gate set to 16.8 for one track() it is re-matched around the prediction,
+// still disagrees, and the frame is dropped. The next track() has the options' gate again.
+TEST(Tracker, APriorGateForOneFrame) {
+  const PinholeCamera cam = synthetic_camera();
+  const test::SyntheticScene scene = test::SyntheticScene::office();
+  const std::vector<SE3> path = test::smooth_path(60);
+  TrackerOptions opt;
+  opt.prior_gate_chi2 = 150.0;
+  opt.prior_in_optimization = false;
+  Tracker tracker(cam, opt);
+  for (int i = 0; i < 20; ++i) {
+    ASSERT_EQ(tracker.track(scene.render(cam, path[static_cast<std::size_t>(i)])).state,
+              TrackingState::kOk);
+  }
+  auto prior_at = [&](std::size_t i) {
+    MotionPrior p;
+    p.T_w_c = SE3(path[i].so3(), path[i].translation() + Vec3(0.03, 0.0, 0.0));
+    p.rotation_sigma = 0.001;
+    p.translation_sigma = 0.005;
+    return p;
+  };
+  const TrackResult wide =
+      tracker.track(tracker.extractor().extract(scene.render(cam, path[20])), prior_at(20));
+  ASSERT_EQ(wide.state, TrackingState::kOk);
+  EXPECT_FALSE(wide.prior_conflict);
+  EXPECT_GT(wide.prior_chi2, 16.8);
+  tracker.set_prior_gate_chi2(16.8);
+  const TrackResult tight =
+      tracker.track(tracker.extractor().extract(scene.render(cam, path[21])), prior_at(21));
+  EXPECT_TRUE(tight.prior_conflict);
+  EXPECT_EQ(tight.state, TrackingState::kLost);
+  const TrackResult again =
+      tracker.track(tracker.extractor().extract(scene.render(cam, path[22])), prior_at(22));
+  EXPECT_NE(again.state, TrackingState::kLost);
+  EXPECT_FALSE(again.prior_conflict);
+}
+
 // Lost without any prediction, somewhere the map never saw (a real room after the synthetic
 // office): relocalization cannot succeed, so after restart_after_lost_frames the track restarts
 // at the last position, turned to the attitude hint, and goes on from there.
