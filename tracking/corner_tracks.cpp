@@ -12,9 +12,8 @@ namespace kestrel::tracking {
 namespace {
 
 bool inside_any(const std::vector<PixelBox>& boxes, double x, double y) {
-  return std::any_of(boxes.begin(), boxes.end(), [&](const PixelBox& b) {
-    return x >= b.x_min && x <= b.x_max && y >= b.y_min && y <= b.y_max;
-  });
+  return std::any_of(boxes.begin(), boxes.end(),
+                     [&](const PixelBox& b) { return b.contains(x, y); });
 }
 
 // Metres at pixel (u, v), or 0 where the 3x3 patch around it is incomplete or straddles a depth

@@ -224,9 +224,7 @@ DepthAlignmentResult align_depth(const Image& ref_depth, double ref_scale, const
       if (!cur.at(cx, cy).valid) continue;
       ++valid;
       const double u = (cx + 0.5) * cur.size(), v = (cy + 0.5) * cur.size();
-      const auto inside = [&](const PixelBox& b) {
-        return u >= b.x_min && u <= b.x_max && v >= b.y_min && v <= b.y_max;
-      };
+      const auto inside = [&](const PixelBox& b) { return b.contains(u, v); };
       if (std::none_of(exclude.begin(), exclude.end(), inside)) points.push_back(&cur.at(cx, cy));
     }
   }

@@ -50,6 +50,9 @@ struct DepthAlignmentPrior {
 // Pixels of the current image to leave out (a mover's box: its depth moves on its own).
 struct PixelBox {
   double x_min = 0, y_min = 0, x_max = 0, y_max = 0;
+  bool contains(double x, double y) const {
+    return x >= x_min && x <= x_max && y >= y_min && y <= y_max;
+  }
 };
 
 // A corner of the reference frame, its point from the reference's depth (metres, reference

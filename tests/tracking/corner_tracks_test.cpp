@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "core/so3.hpp"
+#include "synthetic_scene.hpp"
 
 namespace kestrel::tracking {
 namespace {
@@ -30,13 +31,6 @@ std::vector<Blob> blotches(unsigned seed, double scale = 1.0) {
   std::vector<Blob> b(static_cast<std::size_t>(500 / scale));
   for (auto& x : b) x = {y(rng), z(rng), r(rng), a(rng)};
   return b;
-}
-
-// A camera looking along world +x (camera z = world x), yawed by `yaw`.
-SE3 camera_at(const Vec3& t, double yaw) {
-  Mat3 R_w_c;
-  R_w_c << 0, 0, 1, -1, 0, 0, 0, -1, 0;
-  return SE3(SO3::exp(Vec3(0, 0, yaw)) * SO3(R_w_c), t);
 }
 
 struct View {
@@ -83,8 +77,8 @@ Step wall_step(double grey_noise, double distance_m = kWallX) {
   const auto blobs = blotches(7, distance_m / kWallX);
   const double x = kWallX - distance_m;
   Step s;
-  s.T_w_ref = camera_at(Vec3(x, 0, 1.2), 0.0);
-  s.T_w_cur = camera_at(Vec3(x + 0.012, -0.015, 1.206), 0.006);
+  s.T_w_ref = test::camera_facing_x(Vec3(x, 0, 1.2), 0.0);
+  s.T_w_cur = test::camera_facing_x(Vec3(x + 0.012, -0.015, 1.206), 0.006);
   s.ref = render(blobs, s.T_w_ref, cam, grey_noise, 1);
   s.cur = render(blobs, s.T_w_cur, cam, grey_noise, 2);
   return s;
@@ -183,8 +177,8 @@ TEST(CornerTracks, NoiseAloneGivesNoTracks) {
   const PinholeCamera cam;
   const std::vector<Blob> bare;
   Step s;
-  s.T_w_ref = camera_at(Vec3(0, 0, 1.2), 0.0);
-  s.T_w_cur = camera_at(Vec3(0.012, -0.015, 1.206), 0.006);
+  s.T_w_ref = test::camera_facing_x(Vec3(0, 0, 1.2), 0.0);
+  s.T_w_cur = test::camera_facing_x(Vec3(0.012, -0.015, 1.206), 0.006);
   s.ref = render(bare, s.T_w_ref, cam, 1.5, 1);
   s.cur = render(bare, s.T_w_cur, cam, 1.5, 2);
   const CornerTracks c = follow_corners(s.ref.gray, s.ref.depth, kScale, s.cur.gray, cam);

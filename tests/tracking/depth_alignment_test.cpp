@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "core/so3.hpp"
+#include "synthetic_scene.hpp"
 
 namespace kestrel::tracking {
 namespace {
@@ -44,13 +45,6 @@ Image render(const std::vector<Plane>& planes, const SE3& T_w_c, const PinholeCa
   return im;
 }
 
-// A camera looking along world +x at a wall 3 m ahead (camera z = world x).
-SE3 camera_at(const Vec3& t, double yaw) {
-  Mat3 R_w_c;
-  R_w_c << 0, 0, 1, -1, 0, 0, 0, -1, 0;
-  return SE3(SO3::exp(Vec3(0, 0, yaw)) * SO3(R_w_c), t);
-}
-
 struct Case {
   SE3 T_w_ref, T_w_cur;
   Image ref, cur;
@@ -58,8 +52,8 @@ struct Case {
 
 Case make_case(const std::vector<Plane>& planes, const PinholeCamera& cam) {
   Case c;
-  c.T_w_ref = camera_at(Vec3(0, 0, 1.2), 0.0);
-  c.T_w_cur = camera_at(Vec3(0.04, -0.03, 1.21), 0.02);
+  c.T_w_ref = test::camera_facing_x(Vec3(0, 0, 1.2), 0.0);
+  c.T_w_cur = test::camera_facing_x(Vec3(0.04, -0.03, 1.21), 0.02);
   c.ref = render(planes, c.T_w_ref, cam, 0.02, 1);
   c.cur = render(planes, c.T_w_cur, cam, 0.02, 2);
   return c;

@@ -5,6 +5,7 @@
 #include <limits>
 #include <stdexcept>
 
+#include "core/so3.hpp"
 #include "io/image_io.hpp"
 #include "tests/test_paths.hpp"
 
@@ -82,6 +83,12 @@ RgbdFrame SyntheticScene::render(const PinholeCamera& cam, const SE3& T_w_c, Tim
     }
   }
   return f;
+}
+
+SE3 camera_facing_x(const Vec3& t, double yaw) {
+  Mat3 R_w_c;
+  R_w_c << 0, 0, 1, -1, 0, 0, 0, -1, 0;
+  return SE3(SO3::exp(Vec3(0, 0, yaw)) * SO3(R_w_c), t);
 }
 
 std::vector<SE3> smooth_path(int n) {

@@ -35,6 +35,10 @@ class SyntheticScene {
   std::vector<Texture> textures_;
 };
 
+// A camera looking along world +x (camera z = world x, camera y = world -z), turned by yaw
+// about world z: facing a wall that is a plane x = const.
+SE3 camera_facing_x(const Vec3& t, double yaw);
+
 // The camera path of the end-to-end test: smooth sideways, up-down and forward motion with a
 // few degrees of rotation, n frames. World = first camera.
 std::vector<SE3> smooth_path(int n);

@@ -39,6 +39,21 @@ RgbdFrame blank_frame(const PinholeCamera& cam) {
   return blank;
 }
 
+// Tracks the first n frames of the office along path: the map the tests then lose, find again
+// or leave.
+::testing::AssertionResult tracks_office(Tracker& tracker, const PinholeCamera& cam,
+                                         const test::SyntheticScene& scene,
+                                         const std::vector<SE3>& path, int n = 20) {
+  for (int i = 0; i < n; ++i) {
+    const TrackingState s =
+        tracker.track(scene.render(cam, path[static_cast<std::size_t>(i)])).state;
+    if (s != TrackingState::kOk) {
+      return ::testing::AssertionFailure() << "frame " << i << " " << to_string(s);
+    }
+  }
+  return ::testing::AssertionSuccess();
+}
+
 RgbdFrame tum_frame() {
   RgbdFrame f;
   f.color = io::load_image(test::shared_data("tum_fr3/frame/rgb_1341846313.592026.png").string(),
@@ -160,10 +175,7 @@ TEST(Tracker, WaitsForDepthThenLosesOnBlankAndRelocalizes) {
   Tracker tracker(cam);
   const RgbdFrame blank = blank_frame(cam);
   EXPECT_EQ(tracker.track(blank).state, TrackingState::kInitializing);
-  for (int i = 0; i < 20; ++i) {
-    ASSERT_EQ(tracker.track(scene.render(cam, path[static_cast<std::size_t>(i)])).state,
-              TrackingState::kOk);
-  }
+  ASSERT_TRUE(tracks_office(tracker, cam, scene, path));
   const SE3 last = tracker.last_pose();
   const TrackResult lost = tracker.track(blank);
   EXPECT_EQ(lost.state, TrackingState::kLost);
@@ -189,10 +201,7 @@ TEST(Tracker, BusyLostTrackSearchesTheWholeMapOnlyEveryNthFrame) {
   o.coast_frames = 0;  // no guess from the last motion: only the whole-map search can find it
   Tracker tracker(cam, o);
   const RgbdFrame blank = blank_frame(cam);
-  for (int i = 0; i < 20; ++i) {
-    ASSERT_EQ(tracker.track(scene.render(cam, path[static_cast<std::size_t>(i)])).state,
-              TrackingState::kOk);
-  }
+  ASSERT_TRUE(tracks_office(tracker, cam, scene, path));
   ASSERT_EQ(tracker.track(blank).state, TrackingState::kLost);  // lost here
   tracker.set_busy(true);
   const TrackResult first = tracker.track(blank);  // lost frame 0: searches
@@ -218,10 +227,7 @@ TEST(Tracker, RelocalizationMustAgreeWithTheAttitudeHint) {
   const RgbdFrame blank = blank_frame(cam);
   for (const bool agree : {false, true}) {
     Tracker tracker(cam);
-    for (int i = 0; i < 20; ++i) {
-      ASSERT_EQ(tracker.track(scene.render(cam, path[static_cast<std::size_t>(i)])).state,
-                TrackingState::kOk);
-    }
+    ASSERT_TRUE(tracks_office(tracker, cam, scene, path));
     ASSERT_EQ(tracker.track(blank).state, TrackingState::kLost);
     const SO3 truth = path[30].so3();
     // Turned 40 degrees about the camera's vertical axis: outside the 20-degree tolerance.
@@ -250,10 +256,7 @@ TEST(Tracker, AHeldBridgeWaitsForTheMap) {
   TrackerOptions opt;
   opt.bridge_after_lost_frames = 3;
   Tracker tracker(cam, opt);
-  for (int i = 0; i < 20; ++i) {
-    ASSERT_EQ(tracker.track(scene.render(cam, path[static_cast<std::size_t>(i)])).state,
-              TrackingState::kOk);
-  }
+  ASSERT_TRUE(tracks_office(tracker, cam, scene, path));
   const SE3 last = tracker.last_pose();
   const RgbdFrame elsewhere = tum_frame();
   for (int i = 0; i < 3 * opt.bridge_after_lost_frames; ++i) {
@@ -279,10 +282,7 @@ TEST(Tracker, APriorGateForOneFrame) {
   opt.prior_gate_chi2 = 150.0;
   opt.prior_in_optimization = false;
   Tracker tracker(cam, opt);
-  for (int i = 0; i < 20; ++i) {
-    ASSERT_EQ(tracker.track(scene.render(cam, path[static_cast<std::size_t>(i)])).state,
-              TrackingState::kOk);
-  }
+  ASSERT_TRUE(tracks_office(tracker, cam, scene, path));
   auto prior_at = [&](std::size_t i) {
     MotionPrior p;
     p.T_w_c = SE3(path[i].so3(), path[i].translation() + Vec3(0.03, 0.0, 0.0));
@@ -317,10 +317,7 @@ TEST(Tracker, LongLostWithoutPredictionRestartsAtTheLastPose) {
   opt.restart_after_lost_frames = 8;
   opt.coast_frames = 3;
   Tracker tracker(cam, opt);
-  for (int i = 0; i < 20; ++i) {
-    ASSERT_EQ(tracker.track(scene.render(cam, path[static_cast<std::size_t>(i)])).state,
-              TrackingState::kOk);
-  }
+  ASSERT_TRUE(tracks_office(tracker, cam, scene, path));
   const SE3 last = tracker.last_pose();
   const SO3 hint = last.so3() * SO3::exp(Vec3(0.0, 0.3, 0.0));
   tracker.set_attitude_hint(hint);
