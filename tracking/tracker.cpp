@@ -250,7 +250,13 @@ TrackResult Tracker::track(FrameFeatures f, const std::optional<SE3>& predicted,
   res.times.optimize_ms = optimize_ms;
   res.times.match_ms = ms_since(tm) - optimize_ms;
 
-  const int needed = relocalizing ? options_.min_inliers_relocalize : options_.min_inliers;
+  // Vision that agrees with the IMU's prediction (in the optimization and within its gate) needs
+  // fewer points of its own to be trusted.
+  const bool imu_agrees = prior_ && prior_gate > 0.0 && pose.ok && res.prior_chi2 <= prior_gate;
+  const int needed = relocalizing ? options_.min_inliers_relocalize
+                     : imu_agrees && options_.min_inliers_with_prior > 0
+                         ? options_.min_inliers_with_prior
+                         : options_.min_inliers;
   bool ok = pose.ok && pose.inliers >= needed && pose.T_c_w.is_finite();
   if (ok && relocalizing) {
     // A relocalization far from where the IMU says the camera is found a look-alike place (a

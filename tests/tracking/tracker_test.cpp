@@ -306,6 +306,35 @@ TEST(Tracker, APriorGateForOneFrame) {
   EXPECT_FALSE(again.prior_conflict);
 }
 
+// A frame left with fewer points than min_inliers (a walker filling the near view) is still
+// tracked when those points agree with the IMU's prediction (ORB-SLAM3's 15 in its inertial
+// modes); the same points without the prediction are not enough.
+TEST(Tracker, FewInliersThatAgreeWithTheImuAreEnough) {
+  const PinholeCamera cam = synthetic_camera();
+  const test::SyntheticScene scene = test::SyntheticScene::office();
+  const std::vector<SE3> path = test::smooth_path(60);
+  Tracker with_imu(cam), vision_alone(cam);
+  ASSERT_TRUE(tracks_office(with_imu, cam, scene, path));
+  ASSERT_TRUE(tracks_office(vision_alone, cam, scene, path));
+  const FrameFeatures f = with_imu.extractor().extract(scene.render(cam, path[20]));
+  // Every 38th feature with depth: points spread over the view, 16 of them matched.
+  std::vector<std::uint8_t> keep(f.size(), 0);
+  int kept = 0;
+  for (std::size_t i = 0; i < f.size(); ++i) {
+    if (f.depth[i] > 0 && i % 38 == 0) keep[i] = 1, ++kept;
+  }
+  MotionPrior imu;
+  imu.T_w_c = path[20];
+  imu.rotation_sigma = 0.002;
+  imu.translation_sigma = 0.01;
+  const TrackResult r = with_imu.track(f, imu, &keep);
+  ASSERT_EQ(r.state, TrackingState::kOk) << kept << " kept";
+  EXPECT_GE(r.inliers, 15);
+  EXPECT_LT(r.inliers, TrackerOptions{}.min_inliers);
+  EXPECT_LT((r.T_w_c.translation() - path[20].translation()).norm(), 0.02);
+  EXPECT_EQ(vision_alone.track(f, std::optional<SE3>(path[20]), &keep).state, TrackingState::kLost);
+}
+
 // Lost without any prediction, somewhere the map never saw (a real room after the synthetic
 // office): relocalization cannot succeed, so after restart_after_lost_frames the track restarts
 // at the last position, turned to the attitude hint, and goes on from there.
