@@ -250,8 +250,8 @@ TrackResult Tracker::track(FrameFeatures f, const std::optional<SE3>& predicted,
   res.times.optimize_ms = optimize_ms;
   res.times.match_ms = ms_since(tm) - optimize_ms;
 
-  // Vision that agrees with the IMU's prediction (in the optimization and within its gate) needs
-  // fewer points of its own to be trusted.
+  // Vision that agrees with the IMU's prediction (within its gate) needs fewer points of its own
+  // to be trusted.
   const bool imu_agrees = prior_ && prior_gate > 0.0 && pose.ok && res.prior_chi2 <= prior_gate;
   const int needed = relocalizing ? options_.min_inliers_relocalize
                      : imu_agrees && options_.min_inliers_with_prior > 0
