@@ -41,7 +41,8 @@ struct TrackerOptions {
   // and searched for its map with 1-6 inliers for 6 frames; kept, the next frames found 26-52.
   // Nine 40 s corridor-dark draws: lost 23 -> 11 (seed 1 7 -> 1, APE 0.072 -> 0.062 m; seed 3
   // 7 -> 1, 0.056 -> 0.048; the other seven within 0.003 m); market seed 2 22 -> 0 lost
-  // (0.037 -> 0.031 m), seed 3 2 -> 3 (0.062 -> 0.060); uav-zigzag seeds 1 and 4 unchanged.
+  // (0.037 -> 0.031 m), seed 3 2 -> 3 (0.062 -> 0.060); uav-zigzag seeds 1 and 4, cafe seeds 1
+  // and 2 and ugv-loop unchanged to the digit.
   int min_inliers_with_prior = 15;
   int min_inliers_relocalize = 30;
   // Relocalization matches the frame against at most this many map points. A larger map (a
