@@ -233,6 +233,35 @@ void flow_by_window(const std::vector<cv::Mat>& cur_levels, const std::vector<cv
   }
 }
 
+// The depths of the largest surface in `region` of a 16-bit depth image (every other pixel):
+// those within one foreground band's width (twice DynamicFilterOptions::foreground_band_m or
+// _rel) of each other that are most numerous. A median of all of them would fall between a
+// walker and the wall behind when each holds half the region.
+std::vector<double> largest_surface(const Image& depth, double scale, const BoxRegion& region,
+                                    const DynamicFilterOptions& opt) {
+  std::vector<double> z;
+  const int x0 = std::max(0, static_cast<int>(region.x_min));
+  const int x1 = std::min(depth.width, static_cast<int>(region.x_max));
+  const int y0 = std::max(0, static_cast<int>(region.y_min));
+  const int y1 = std::min(depth.height, static_cast<int>(region.y_max));
+  for (int v = y0; v < y1; v += 2) {
+    const std::uint16_t* row = depth.row<std::uint16_t>(v);
+    for (int u = x0; u < x1; u += 2) {
+      if (row[u]) z.push_back(row[u] / scale);
+    }
+  }
+  std::sort(z.begin(), z.end());
+  std::size_t best_lo = 0, best_hi = 0, hi = 0;
+  for (std::size_t lo = 0; lo < z.size(); ++lo) {
+    const double width = 2.0 * std::max(opt.foreground_band_m, opt.foreground_band_rel * z[lo]);
+    hi = std::max(hi, lo);
+    while (hi < z.size() && z[hi] <= z[lo] + width) ++hi;
+    if (hi - lo > best_hi - best_lo) best_lo = lo, best_hi = hi;
+  }
+  return {z.begin() + static_cast<std::ptrdiff_t>(best_lo),
+          z.begin() + static_cast<std::ptrdiff_t>(best_hi)};
+}
+
 // Step 7 of classify_features (DynamicFilterOptions::coherent_neighbours): `departure[i]` is
 // where the flow put feature i in the previous frame minus where the ego-motion puts it.
 void demote_incoherent_flow(const std::vector<cv::Point2f>& pts_cur,
@@ -556,6 +585,13 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
                                                static_cast<float>(in.points[i].y()))) {
           core_depths.push_back(in.depth_m[i]);
         }
+      }
+      // With the depth image, the object's depth comes from the core's pixels, not from its
+      // features: ORB corners crowd onto the textured scenery behind a walker, so their median
+      // can be the background's while the walker covers most of the core.
+      if (depth_image && opt.dense_core_depth && core_depths.size() >= 3) {
+        std::vector<double> surface = largest_surface(*in.cur_depth, in.depth_scale, core, opt);
+        if (surface.size() >= 8) core_depths = std::move(surface);
       }
       if (core_depths.size() < 3) {
         if (opt.far_box_no_depth_dynamic) {

@@ -891,6 +891,76 @@ TEST(DynamicFilter, OutlineBackgroundJudgedByDepthNotFlow) {
   EXPECT_GT(with.kept, without.kept);
 }
 
+// A walker standing still in a loose box, the textured wall behind it filling the box's sides:
+// the features of the box's core are mostly the wall's, but its depth pixels mostly the
+// walker's. The object's depth comes from the pixels (dense_core_depth), so the walker's
+// features are its own, dynamic although it does not move now.
+TEST(DynamicFilter, ObjectDepthFromTheCoresPixelsNotItsFeatures) {
+  // A faint walker (its photo at a third of the contrast) gives fewer corners than the wall.
+  cv::Mat faint;
+  photo("person.jpg").convertTo(faint, -1, 0.35, 64);
+  const std::vector<Plane> planes = {{photo("000004.jpg"), 5.0, -6, 6, -4, 4},
+                                     {photo("horses.jpg"), 2.0, -1.2, -0.4, -0.2, 0.6},
+                                     {faint, 3.0, 0.2, 1.0, -0.8, 0.6}};
+  Scene s;
+  s.prev = render(planes, cv::Vec3d(0, 0, 0));
+  s.cur = render(planes, cv::Vec3d(0, 0, 0), &s.ids);
+  std::vector<cv::Point2f> corners;
+  cv::goodFeaturesToTrack(s.cur, corners, 800, 0.005, 7);
+  for (const auto& c : corners) s.points.emplace_back(c.x, c.y);
+  const Image prev = to_image(s.prev), cur = to_image(s.cur);
+  DynamicFilterInput in = input_for(s, prev, cur);
+  BoxRegion box = mover_box(s);
+  const float w = box.x_max - box.x_min, h = box.y_max - box.y_min;
+  box.x_min -= 0.6f * w, box.x_max += 0.6f * w, box.y_min -= 0.2f * h, box.y_max += 0.2f * h;
+  in.boxes = {box};
+  in.depth_m = depths_of(s, 0.0);
+  Image depth = Image::allocate(640, 480, 1, PixelType::kU16);
+  const double plane_z[3] = {5.0, 2.0, 3.0};
+  for (int v = 0; v < 480; ++v) {
+    for (int u = 0; u < 640; ++u) {
+      const int id = s.ids.at<uint8_t>(v, u);
+      depth.row<std::uint16_t>(v)[u] =
+          id < 3 ? static_cast<std::uint16_t>(plane_z[id] * in.depth_scale) : 0;
+    }
+  }
+  in.cur_depth = &depth;
+  // The premise: in the core, more features on the wall than on the walker.
+  const BoxRegion core{
+      box.x_min + 0.25f * (box.x_max - box.x_min), box.y_min + 0.15f * (box.y_max - box.y_min),
+      box.x_max - 0.25f * (box.x_max - box.x_min), box.y_max - 0.35f * (box.y_max - box.y_min)};
+  int wall = 0, walker = 0;
+  for (const Vec2& p : s.points) {
+    if (!core.contains(static_cast<float>(p.x()), static_cast<float>(p.y()))) continue;
+    const int id = s.ids.at<uint8_t>(static_cast<int>(p.y()), static_cast<int>(p.x()));
+    wall += id == 0, walker += id == 2;
+  }
+  ASSERT_GT(wall, walker);
+  // Shares of the walker's features removed and of the others kept.
+  const auto shares = [&](const DynamicFilterResult& r) {
+    int on_walker = 0, removed = 0, others = 0, kept = 0;
+    for (std::size_t i = 0; i < s.points.size(); ++i) {
+      const bool dyn = r.labels[i] == FeatureLabel::kDynamic;
+      if (s.ids.at<uint8_t>(static_cast<int>(s.points[i].y()), static_cast<int>(s.points[i].x())) ==
+          2) {
+        ++on_walker, removed += dyn;
+      } else {
+        ++others, kept += !dyn;
+      }
+    }
+    EXPECT_GE(on_walker, 5);
+    return std::pair<double, double>{double(removed) / std::max(on_walker, 1),
+                                     double(kept) / std::max(others, 1)};
+  };
+  DynamicFilterOptions opt;
+  const auto [dense_removed, dense_kept] = shares(classify_features(in, opt));
+  opt.dense_core_depth = false;
+  const auto [sparse_removed, sparse_kept] = shares(classify_features(in, opt));
+  EXPECT_EQ(dense_removed, 1.0);
+  EXPECT_LT(sparse_removed, 0.5);
+  EXPECT_GE(dense_kept, sparse_kept);
+}
+
 TEST(DynamicFilter, EmptyInputAndTooFewFeatures) {
   Image a = Image::allocate(64, 48, 1, PixelType::kU8);
   DynamicFilterInput in;
