@@ -571,8 +571,11 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
   std::vector<bool> far_box_no_depth(n, false);  // DynamicFilterOptions::far_box_no_depth_dynamic
   // 1: behind the object with its window on the object's outline; 2: the same without depth.
   std::vector<std::uint8_t> outline(n, 0);
+  // Only a depth image on the grey image's own pixels (registered) says what lies under a box.
   const bool depth_image = in.cur_depth && !in.cur_depth->empty() &&
-                           in.cur_depth->type == PixelType::kU16 && in.cur_depth->channels == 1;
+                           in.cur_depth->type == PixelType::kU16 && in.cur_depth->channels == 1 &&
+                           (!in.cur_gray || (in.cur_depth->width == in.cur_gray->width &&
+                                             in.cur_depth->height == in.cur_gray->height));
   if (use_boxes && in.depth_m.size() == n) {
     for (std::size_t b = 0; b < in.boxes.size(); ++b) {
       const BoxRegion& box = in.boxes[b];

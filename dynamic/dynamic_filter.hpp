@@ -301,8 +301,10 @@ struct DynamicFilterInput {
   // image but its depth does not follow the camera's motion.
   const Image* prev_depth = nullptr;
   double depth_scale = 5000.0;
-  // The current frame's depth image (16-bit, metres = value / depth_scale), optional: with it,
-  // features on a detected object's outline are judged by the depth on both sides.
+  // The current frame's depth image (16-bit, metres = value / depth_scale) on cur_gray's pixels
+  // (same size; otherwise unused), optional: with it, a detected object's depth comes from its
+  // pixels (DynamicFilterOptions::dense_core_depth) and features on its outline may be judged
+  // by the depth on both sides.
   const Image* cur_depth = nullptr;
   // Optional: prev_gray's pyramid from the call before (used when built from the same pixels
   // with the same window and levels), and where to leave cur_gray's for the next call.

@@ -959,6 +959,11 @@ TEST(DynamicFilter, ObjectDepthFromTheCoresPixelsNotItsFeatures) {
   EXPECT_EQ(dense_removed, 1.0);
   EXPECT_LT(sparse_removed, 0.5);
   EXPECT_GE(dense_kept, sparse_kept);
+  // A depth image not on the grey image's pixels says nothing about the box.
+  const Image half = Image::allocate(320, 240, 1, PixelType::kU16);
+  in.cur_depth = &half;
+  opt.dense_core_depth = true;
+  EXPECT_EQ(shares(classify_features(in, opt)).first, sparse_removed);
 }
 
 TEST(DynamicFilter, EmptyInputAndTooFewFeatures) {
