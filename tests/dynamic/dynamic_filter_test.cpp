@@ -64,9 +64,11 @@ struct Scene {
 };
 
 // Background wall at 5 m, a static box at 2 m, a mover at 3 m that moves `mover_step` between
-// the frames while the camera moves `cam_step`.
-Scene make_scene(const cv::Vec3d& cam_step, const cv::Vec3d& mover_step) {
-  const cv::Mat wall = photo("000004.jpg"), box = photo("horses.jpg"), mover = photo("person.jpg");
+// the frames while the camera moves `cam_step`. The mover is person.jpg unless `mover_texture`.
+Scene make_scene(const cv::Vec3d& cam_step, const cv::Vec3d& mover_step,
+                 const cv::Mat& mover_texture = cv::Mat()) {
+  const cv::Mat wall = photo("000004.jpg"), box = photo("horses.jpg");
+  const cv::Mat mover = mover_texture.empty() ? photo("person.jpg") : mover_texture;
   std::vector<Plane> planes = {{wall, 5.0, -6, 6, -4, 4},
                                {box, 2.0, -1.2, -0.4, -0.2, 0.6},
                                {mover, 3.0, 0.2, 1.0, -0.8, 0.6}};
@@ -239,6 +241,19 @@ std::vector<double> depths_of(const Scene& s, double cam_z) {
     d.push_back(id < 3 ? plane_z[id] - cam_z : 0.0);
   }
   return d;
+}
+
+// The current frame's depth image of make_scene's planes (16-bit, metres * scale).
+Image depth_image_of(const Scene& s, double scale) {
+  Image depth = Image::allocate(640, 480, 1, PixelType::kU16);
+  const double plane_z[3] = {5.0, 2.0, 3.0};
+  for (int v = 0; v < 480; ++v) {
+    for (int u = 0; u < 640; ++u) {
+      const int id = s.ids.at<uint8_t>(v, u);
+      depth.row<std::uint16_t>(v)[u] = id < 3 ? static_cast<std::uint16_t>(plane_z[id] * scale) : 0;
+    }
+  }
+  return depth;
 }
 
 TEST(DynamicFilter, DepthGivesEgoMotionWithoutParallaxAmbiguity) {
@@ -860,15 +875,7 @@ TEST(DynamicFilter, OutlineBackgroundJudgedByDepthNotFlow) {
   box.x_min -= 12, box.y_min -= 12, box.x_max += 12, box.y_max += 12;
   in.boxes = {box};
   in.depth_m = depths_of(s, 0.0);
-  Image depth = Image::allocate(640, 480, 1, PixelType::kU16);
-  const double plane_z[3] = {5.0, 2.0, 3.0};
-  for (int v = 0; v < 480; ++v) {
-    for (int u = 0; u < 640; ++u) {
-      const int id = s.ids.at<uint8_t>(v, u);
-      depth.row<std::uint16_t>(v)[u] =
-          id < 3 ? static_cast<std::uint16_t>(plane_z[id] * in.depth_scale) : 0;
-    }
-  }
+  const Image depth = depth_image_of(s, in.depth_scale);
   in.cur_depth = &depth;
   DynamicFilterOptions opt;
   opt.outline_by_depth = true;  // an option, off by default
@@ -899,15 +906,7 @@ TEST(DynamicFilter, ObjectDepthFromTheCoresPixelsNotItsFeatures) {
   // A faint walker (its photo at a third of the contrast) gives fewer corners than the wall.
   cv::Mat faint;
   photo("person.jpg").convertTo(faint, -1, 0.35, 64);
-  const std::vector<Plane> planes = {{photo("000004.jpg"), 5.0, -6, 6, -4, 4},
-                                     {photo("horses.jpg"), 2.0, -1.2, -0.4, -0.2, 0.6},
-                                     {faint, 3.0, 0.2, 1.0, -0.8, 0.6}};
-  Scene s;
-  s.prev = render(planes, cv::Vec3d(0, 0, 0));
-  s.cur = render(planes, cv::Vec3d(0, 0, 0), &s.ids);
-  std::vector<cv::Point2f> corners;
-  cv::goodFeaturesToTrack(s.cur, corners, 800, 0.005, 7);
-  for (const auto& c : corners) s.points.emplace_back(c.x, c.y);
+  const Scene s = make_scene({0, 0, 0}, {0, 0, 0}, faint);
   const Image prev = to_image(s.prev), cur = to_image(s.cur);
   DynamicFilterInput in = input_for(s, prev, cur);
   BoxRegion box = mover_box(s);
@@ -915,15 +914,7 @@ TEST(DynamicFilter, ObjectDepthFromTheCoresPixelsNotItsFeatures) {
   box.x_min -= 0.6f * w, box.x_max += 0.6f * w, box.y_min -= 0.2f * h, box.y_max += 0.2f * h;
   in.boxes = {box};
   in.depth_m = depths_of(s, 0.0);
-  Image depth = Image::allocate(640, 480, 1, PixelType::kU16);
-  const double plane_z[3] = {5.0, 2.0, 3.0};
-  for (int v = 0; v < 480; ++v) {
-    for (int u = 0; u < 640; ++u) {
-      const int id = s.ids.at<uint8_t>(v, u);
-      depth.row<std::uint16_t>(v)[u] =
-          id < 3 ? static_cast<std::uint16_t>(plane_z[id] * in.depth_scale) : 0;
-    }
-  }
+  const Image depth = depth_image_of(s, in.depth_scale);
   in.cur_depth = &depth;
   // The premise: in the core, more features on the wall than on the walker.
   const BoxRegion core{
