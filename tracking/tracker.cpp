@@ -235,9 +235,17 @@ TrackResult Tracker::track(FrameFeatures f, const std::optional<SE3>& predicted,
       std::vector<PointId> visible_p;
       Matched mp = search_local_map(f, prior_->T_c_w, pts, options_.refine_radius_px, &visible_p);
       const auto to = Clock::now();
-      PoseOptimizerResult pp = optimize(f, mp, prior_->T_c_w);
+      // TrackerOptions::prior_in_conflict: held by the prior, the pose must still explain about
+      // as many points as vision's own; then vision was only weakly pinned and what pulled it
+      // off (movers) is outvoted. Far fewer, and vision is sure of a pose the prediction misses.
+      // Not under a one-frame gate (set_prior_gate_chi2, after frames aligned frame to frame),
+      // which asks vision itself to agree.
+      const bool held =
+          options_.prior_in_conflict && !options_.prior_in_optimization && override_gate <= 0.0;
+      PoseOptimizerResult pp = optimize(f, mp, prior_->T_c_w, held);
       optimize_ms += ms_since(to);
-      if (pp.ok && disagreement(pp.T_c_w) <= prior_gate) {
+      if (pp.ok && disagreement(pp.T_c_w) <= prior_gate &&
+          (!held || pp.inliers >= options_.prior_conflict_min_share * pose.inliers)) {
         pose = pp;
         m = std::move(mp);
         visible = std::move(visible_p);
@@ -563,7 +571,8 @@ std::optional<SE3> Tracker::pnp_against(const FrameFeatures& f, const std::vecto
   return r->T_c_w;
 }
 
-PoseOptimizerResult Tracker::optimize(const FrameFeatures& f, Matched& m, const SE3& T_c_w) const {
+PoseOptimizerResult Tracker::optimize(const FrameFeatures& f, Matched& m, const SE3& T_c_w,
+                                      bool with_prior) const {
   std::vector<PoseObservation> obs;
   std::vector<std::size_t> feature_of;
   for (std::size_t i = 0; i < f.size(); ++i) {
@@ -572,9 +581,9 @@ PoseOptimizerResult Tracker::optimize(const FrameFeatures& f, Matched& m, const 
     obs.push_back({p->p_w, f.keypoints[i].un, 1.0 / f.level_sigma2(f.keypoints[i].level)});
     feature_of.push_back(i);
   }
-  const PosePrior* prior = prior_ && options_.prior_in_optimization ? &*prior_
-                           : rotation_prior_                        ? &*rotation_prior_
-                                                                    : nullptr;
+  const PosePrior* prior = prior_ && (with_prior || options_.prior_in_optimization) ? &*prior_
+                           : rotation_prior_ ? &*rotation_prior_
+                                             : nullptr;
   PoseOptimizerResult r = optimize_pose(camera_, obs, T_c_w, options_.pose, prior);
   m.count = 0;
   for (std::size_t k = 0; k < obs.size(); ++k) {
