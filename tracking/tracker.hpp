@@ -84,7 +84,7 @@ struct TrackerOptions {
   // vision sat at chi-square 343 from the prediction with 67 inliers; held, 66 of them fit at
   // chi-square 1.8. The held pose must pass the gate too, with min_inliers_with_prior, and keep
   // prior_conflict_min_share of vision's own inliers: a wrong prediction against a well-seen
-  // scene kept 166 of 393 (Tracker tests), and the frame is refused as before. Not under
+  // scene keeps well under half (Tracker tests), and the frame is refused as before. Not under
   // set_prior_gate_chi2's one-frame gate (after frames aligned frame to frame), which asks
   // vision itself to agree. 60 s draws (kestrel sim --seed, lost frames, APE m), false -> true:
   // uav-zigzag seeds 1 and 4 1, 0.067 / 3, 0.050 -> 0, 0.066 / 0, 0.038; corridor-dark seeds

@@ -351,6 +351,36 @@ TEST(Tracker, APriorInTheConflictHoldsAWeaklySeenPose) {
   EXPECT_LT((r.T_w_c.so3().inverse() * path[20].so3()).angle(), 0.001);
 }
 
+// A prediction 3 cm off against the whole, well-seen office: held there by the prior, the pose
+// fits well under half the points vision's own pose fits, so vision is the one to believe and the
+// frame is refused; without the share rule the prior's pose would have been taken.
+TEST(Tracker, AHeldPoseMustExplainWhatVisionExplains) {
+  const PinholeCamera cam = synthetic_camera();
+  const test::SyntheticScene scene = test::SyntheticScene::office();
+  const std::vector<SE3> path = test::smooth_path(60);
+  TrackerOptions opt;
+  opt.prior_in_optimization = false;
+  opt.inline_mapping = false;
+  ASSERT_TRUE(opt.prior_in_conflict);
+  TrackerOptions any_share = opt;
+  any_share.prior_conflict_min_share = 0.0;
+  Tracker strict(cam, opt), lax(cam, any_share);
+  ASSERT_TRUE(tracks_office(strict, cam, scene, path));
+  ASSERT_TRUE(tracks_office(lax, cam, scene, path));
+  const FrameFeatures f = strict.extractor().extract(scene.render(cam, path[20]));
+  MotionPrior off;
+  off.T_w_c = SE3(path[20].so3(), path[20].translation() + Vec3(0.03, 0.0, 0.0));
+  off.rotation_sigma = 0.001;
+  off.translation_sigma = 0.005;
+  const TrackResult refused = strict.track(f, off);
+  EXPECT_TRUE(refused.prior_conflict);
+  EXPECT_EQ(refused.state, TrackingState::kLost);
+  const TrackResult taken = lax.track(f, off);
+  EXPECT_TRUE(taken.prior_conflict);
+  ASSERT_EQ(taken.state, TrackingState::kOk);
+  EXPECT_GT((taken.T_w_c.translation() - path[20].translation()).norm(), 0.01);
+}
+
 // A frame left with fewer points than min_inliers (a walker filling the near view) is still
 // tracked when those points agree with the IMU's prediction (ORB-SLAM3's 15 in its inertial
 // modes); the same points without the prediction are not enough.
