@@ -233,26 +233,34 @@ TrackResult Tracker::track(FrameFeatures f, const std::optional<SE3>& predicted,
       // project where the IMU says they should are the static ones; they decide, or nothing.
       res.prior_conflict = true;
       std::vector<PointId> visible_p;
-      Matched mp = search_local_map(f, prior_->T_c_w, pts, options_.refine_radius_px, &visible_p);
-      const auto to = Clock::now();
-      // TrackerOptions::prior_in_conflict: held by the prior, the pose must still explain about
-      // as many points as vision's own; then vision was only weakly pinned and what pulled it
-      // off (movers) is outvoted. Far fewer, and vision is sure of a pose the prediction misses.
-      // Not under a one-frame gate (set_prior_gate_chi2, after frames aligned frame to frame),
-      // which asks vision itself to agree.
-      const bool held =
+      const Matched around =
+          search_local_map(f, prior_->T_c_w, pts, options_.refine_radius_px, &visible_p);
+      // TrackerOptions::prior_in_conflict: first held by the prior. The held pose must still
+      // explain about as many points as vision's own; then vision was only weakly pinned and
+      // what pulled it off (movers) is outvoted. Far fewer, and vision is sure of a pose the
+      // prediction misses: the points then decide alone, as without the option. Not under a
+      // one-frame gate (set_prior_gate_chi2, after frames aligned frame to frame), which asks
+      // vision itself to agree.
+      const bool hold =
           options_.prior_in_conflict && !options_.prior_in_optimization && override_gate <= 0.0;
-      PoseOptimizerResult pp = optimize(f, mp, prior_->T_c_w, held);
-      optimize_ms += ms_since(to);
-      if (pp.ok && disagreement(pp.T_c_w) <= prior_gate &&
-          (!held || pp.inliers >= options_.prior_conflict_min_share * pose.inliers)) {
-        pose = pp;
-        m = std::move(mp);
-        visible = std::move(visible_p);
-        res.prior_chi2 = disagreement(pp.T_c_w);
-      } else {
-        pose.ok = false;
+      bool taken = false;
+      for (const bool held : {true, false}) {
+        if (held && !hold) continue;
+        Matched mp = around;
+        const auto to = Clock::now();
+        PoseOptimizerResult pp = optimize(f, mp, prior_->T_c_w, held);
+        optimize_ms += ms_since(to);
+        if (pp.ok && disagreement(pp.T_c_w) <= prior_gate &&
+            (!held || pp.inliers >= options_.prior_conflict_min_share * pose.inliers)) {
+          pose = pp;
+          m = std::move(mp);
+          visible = std::move(visible_p);
+          res.prior_chi2 = disagreement(pp.T_c_w);
+          taken = true;
+          break;
+        }
       }
+      if (!taken) pose.ok = false;
     }
   }
   res.times.optimize_ms = optimize_ms;
