@@ -250,12 +250,13 @@ TrackResult Tracker::track(FrameFeatures f, const std::optional<SE3>& predicted,
         const auto to = Clock::now();
         PoseOptimizerResult pp = optimize(f, mp, prior_->T_c_w, held);
         optimize_ms += ms_since(to);
-        if (pp.ok && disagreement(pp.T_c_w) <= prior_gate &&
+        const double chi2 = pp.ok ? disagreement(pp.T_c_w) : 0.0;
+        if (pp.ok && chi2 <= prior_gate &&
             (!held || pp.inliers >= options_.prior_conflict_min_share * pose.inliers)) {
           pose = pp;
           m = std::move(mp);
           visible = std::move(visible_p);
-          res.prior_chi2 = disagreement(pp.T_c_w);
+          res.prior_chi2 = chi2;
           taken = true;
           break;
         }

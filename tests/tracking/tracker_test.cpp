@@ -55,6 +55,25 @@ RgbdFrame blank_frame(const PinholeCamera& cam) {
   return ::testing::AssertionSuccess();
 }
 
+// The IMU's prediction of a frame's pose, with its sigmas (radians, metres).
+MotionPrior imu_prior(const SE3& T_w_c, double rotation_sigma, double translation_sigma) {
+  MotionPrior p;
+  p.T_w_c = T_w_c;
+  p.rotation_sigma = rotation_sigma;
+  p.translation_sigma = translation_sigma;
+  return p;
+}
+
+// Moves every feature right of column x by dx pixels: a consensus of movers crossing the view.
+void shift_right_of(FrameFeatures& f, double x, double dx) {
+  for (Keypoint& k : f.keypoints) {
+    if (k.un.x() > x) {
+      k.px.x() += dx;
+      k.un.x() += dx;
+    }
+  }
+}
+
 RgbdFrame tum_frame() {
   RgbdFrame f;
   f.color = io::load_image(test::shared_data("tum_fr3/frame/rgb_1341846313.592026.png").string(),
@@ -332,15 +351,9 @@ TEST(Tracker, APriorInTheConflictHoldsAWeaklySeenPose) {
   int kept = 0;
   for (std::size_t i = 0; i < f.size(); ++i) {
     if (f.depth[i] > 0 && i % 8 == 0) keep[i] = 1, ++kept;
-    if (f.keypoints[i].un.x() > cam.cx) {
-      f.keypoints[i].px.x() += 1.2;
-      f.keypoints[i].un.x() += 1.2;
-    }
   }
-  MotionPrior imu;
-  imu.T_w_c = path[20];
-  imu.rotation_sigma = 0.0003;
-  imu.translation_sigma = 0.001;
+  shift_right_of(f, cam.cx, 1.2);
+  const MotionPrior imu = imu_prior(path[20], 0.0003, 0.001);
   const TrackResult alone = a.track(f, imu, &keep);
   EXPECT_TRUE(alone.prior_conflict);
   EXPECT_EQ(alone.state, TrackingState::kLost) << kept << " kept";
@@ -369,10 +382,8 @@ TEST(Tracker, AHeldPoseMustExplainWhatVisionExplains) {
   ASSERT_TRUE(tracks_office(strict, cam, scene, path));
   ASSERT_TRUE(tracks_office(lax, cam, scene, path));
   const FrameFeatures f = strict.extractor().extract(scene.render(cam, path[20]));
-  MotionPrior off;
-  off.T_w_c = SE3(path[20].so3(), path[20].translation() + Vec3(0.03, 0.0, 0.0));
-  off.rotation_sigma = 0.001;
-  off.translation_sigma = 0.005;
+  const MotionPrior off =
+      imu_prior(SE3(path[20].so3(), path[20].translation() + Vec3(0.03, 0.0, 0.0)), 0.001, 0.005);
   const TrackResult refused = strict.track(f, off);
   EXPECT_TRUE(refused.prior_conflict);
   EXPECT_EQ(refused.state, TrackingState::kLost);
@@ -403,17 +414,8 @@ TEST(Tracker, PointsThatAgreeWithThePredictionAloneStillDecide) {
   std::vector<double> xs;
   for (const auto& k : f.keypoints) xs.push_back(k.un.x());
   std::nth_element(xs.begin(), xs.begin() + xs.size() * 2 / 5, xs.end());
-  const double split = xs[xs.size() * 2 / 5];  // the right 60% move
-  for (auto& k : f.keypoints) {
-    if (k.un.x() > split) {
-      k.px.x() += 9.0;
-      k.un.x() += 9.0;
-    }
-  }
-  MotionPrior imu;
-  imu.T_w_c = path[20];
-  imu.rotation_sigma = 0.001;
-  imu.translation_sigma = 0.002;
+  shift_right_of(f, xs[xs.size() * 2 / 5], 9.0);  // the right 60% move
+  const MotionPrior imu = imu_prior(path[20], 0.001, 0.002);
   const TrackResult r = tracker.track(f, imu);
   const TrackResult b = before.track(f, imu);
   EXPECT_TRUE(r.prior_conflict);
@@ -441,10 +443,7 @@ TEST(Tracker, FewInliersThatAgreeWithTheImuAreEnough) {
   for (std::size_t i = 0; i < f.size(); ++i) {
     if (f.depth[i] > 0 && i % 38 == 0) keep[i] = 1, ++kept;
   }
-  MotionPrior imu;
-  imu.T_w_c = path[20];
-  imu.rotation_sigma = 0.002;
-  imu.translation_sigma = 0.01;
+  const MotionPrior imu = imu_prior(path[20], 0.002, 0.01);
   const TrackResult r = with_imu.track(f, imu, &keep);
   ASSERT_EQ(r.state, TrackingState::kOk) << kept << " kept";
   EXPECT_GE(r.inliers, 15);
