@@ -170,11 +170,16 @@ void print_summary(const char* name, const RunSummary& s) {
   std::printf("%s: %zu frames, ", name, s.frames);
   if (s.dropped > 0) std::printf("%zu dropped while the tracker was busy, ", s.dropped);
   std::printf("%zu tracked", s.tracked);
+  std::string how;  // how the tracked frames without vision's own pose got theirs
   if (s.frame_to_frame > 0) {
-    std::printf(
-        " (%zu of them frame to frame: lost to the map, their step fixed by depth and corners)",
-        s.frame_to_frame);
+    how += std::to_string(s.frame_to_frame) +
+           " of them frame to frame: lost to the map, their step fixed by depth and corners";
   }
+  if (s.bridged > 0) {
+    how += (how.empty() ? "" : "; ") + std::to_string(s.bridged) +
+           " bridged: the local map restarted there";
+  }
+  if (!how.empty()) std::printf(" (%s)", how.c_str());
   std::printf(", %zu lost", s.lost);
   if (s.depth_imu > 0) {
     std::printf(" (%zu of them aligned by depth with the IMU, %zu carried by the IMU alone)",

@@ -279,6 +279,9 @@ RunSummary run_sequence(io::MeasurementSource& source, const RunOptions& options
   if (auto it = counters.find("frames.frame_to_frame"); it != counters.end()) {
     summary.frame_to_frame = it->second;
   }
+  if (auto it = counters.find("tracking.bridged"); it != counters.end()) {
+    summary.bridged = it->second;
+  }
   summary.tracked = traj.size() - std::min(traj.size(), summary.inertial_only);
   summary.removal = system.removal();
   const auto stages = system.stats().summaries();
@@ -354,6 +357,7 @@ std::string summary_json(const RunSummary& s) {
   j["inertial_only"] = s.inertial_only;
   j["depth_imu"] = s.depth_imu;
   j["frame_to_frame"] = s.frame_to_frame;
+  j["bridged"] = s.bridged;
   j["ape_rmse_m"] = s.ape_rmse_m;
   j["ape_pairs"] = s.ape_pairs;
   if (s.has_truth_masks) {

@@ -81,7 +81,11 @@ struct RunSummary {
   std::size_t inertial_only = 0;   // lost frames whose pose the IMU carried (in the trajectory)
   std::size_t depth_imu = 0;       // lost frames aligned by depth with the IMU's prior (trajectory)
   std::size_t frame_to_frame = 0;  // lost to the map, its step from the frame before fixed by depth
-  double ape_rmse_m = -1.0;        // -1 without ground truth
+  // tracked frames that restarted the local map (PoseSource::kBridged) at the IMU's pose, or
+  // at the last one without a prediction (tracking.restarted): their pose is not vision's; the
+  // frames after them are tracked against the map they seeded
+  std::size_t bridged = 0;
+  double ape_rmse_m = -1.0;  // -1 without ground truth
   std::size_t ape_pairs = 0;
   dynamic::RemovalCounts removal;
   bool has_truth_masks = false;

@@ -878,7 +878,16 @@ struct System::Impl {
     // every frame: that search is what let latency pile up to seconds on long market runs.
     // Lock-step runs have all the time they need (and stay reproducible).
     tracker.set_busy(!options.sequential && frames.size() > 0);
-    tracker.set_hold_bridge(prev_frame_to_frame && options.frame_to_frame_holds_bridge);
+    // During a frame-to-frame stretch the frame is aligned first, and the bridge held back only
+    // for a frame that alignment tracks (SystemOptions::bridge_where_alignment_fails).
+    std::optional<Carried> early_carry;
+    const bool hold = prev_frame_to_frame && options.frame_to_frame_holds_bridge;
+    const bool align_first = hold && options.bridge_where_alignment_fails && predicted.has_value();
+    if (align_first) {
+      early_carry = depth_carry(frame, ref_gray, gray, ref_depth, ref_depth_scale, *predicted,
+                                frame_t_prev, boxes);
+    }
+    tracker.set_hold_bridge(hold && (!align_first || (early_carry && early_carry->six_dof)));
     if (prev_frame_to_frame) tracker.set_prior_gate_chi2(options.frame_to_frame_gate_chi2);
     t0 = Clock::now();
     const tracking::TrackResult tr =
@@ -954,8 +963,10 @@ struct System::Impl {
     std::optional<SE3> depth_T_w_c;
     bool six_dof = false;
     if (tr.state == tracking::TrackingState::kLost && predicted) {
-      if (const auto c = depth_carry(frame, ref_gray, gray, ref_depth, ref_depth_scale, *predicted,
-                                     frame_t_prev, boxes)) {
+      if (const auto c = align_first
+                             ? early_carry
+                             : depth_carry(frame, ref_gray, gray, ref_depth, ref_depth_scale,
+                                           *predicted, frame_t_prev, boxes)) {
         depth_T_w_c = c->T_w_c;
         six_dof = c->six_dof;
       }

@@ -5,8 +5,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <filesystem>
 #include <iostream>
+#include <iterator>
 #include <map>
 #include <optional>
 #include <span>
@@ -60,11 +62,56 @@ class Recorder : public Observer {
   std::vector<FrameReport> reports;
 };
 
+// A wall of grey blotches (1 cm squares) 1.5 m ahead of the camera where it first appears and
+// fixed in the world from then on, rendered into colour and depth from the true camera pose.
+struct UnknownWall {
+  Vec3 origin, x_axis, y_axis, normal;
+
+  UnknownWall(const SE3& T_w_c) {
+    const Mat3 R = T_w_c.rotation();
+    x_axis = R.col(0);
+    y_axis = R.col(1);
+    normal = R.col(2);
+    origin = T_w_c.translation() + 1.5 * normal;
+  }
+
+  static std::uint8_t blotch(long i, long j) {
+    std::uint32_t h = static_cast<std::uint32_t>(i * 73856093L ^ j * 19349663L);
+    h ^= h >> 13;
+    h *= 0x5bd1e995u;
+    h ^= h >> 15;
+    return static_cast<std::uint8_t>(40 + h % 180);
+  }
+
+  void render(RgbdFrame& f, const SE3& T_w_c, const Mat3& K) const {
+    const Mat3 Kinv = K.inverse();
+    const Mat3 R = T_w_c.rotation();
+    const Vec3 C = T_w_c.translation();
+    for (int v = 0; v < f.color.height; ++v) {
+      std::uint8_t* rgb = f.color.row<std::uint8_t>(v);
+      std::uint16_t* depth = f.depth.row<std::uint16_t>(v);
+      for (int u = 0; u < f.color.width; ++u) {
+        const Vec3 ray_c = Kinv * Vec3(u + 0.5, v + 0.5, 1.0);  // z = 1: s is the depth
+        const double s = (origin - C).dot(normal) / (R * ray_c).dot(normal);
+        const Vec3 X = C + s * (R * ray_c) - origin;
+        const std::uint8_t g = blotch(std::lround(std::floor(X.dot(x_axis) / 0.01)),
+                                      std::lround(std::floor(X.dot(y_axis) / 0.01)));
+        for (int c = 0; c < f.color.channels; ++c) rgb[u * f.color.channels + c] = g;
+        depth[u] = static_cast<std::uint16_t>(std::lround(s * f.depth_scale));
+      }
+    }
+  }
+};
+
 // keep_depth: the lights go out but the depth sensor (its own emitter) still sees.
 // approach_m: ... and what it sees comes this much nearer each black frame (a mover filling
 // the view). max_correction_chi2: SystemOptions::depth_carry_max_correction_chi2, if set.
+// unknown_wall: from the blackout's end on, the camera faces a wall the map has never seen
+// (UnknownWall): its features match nothing, and depth alone cannot fix a step along a plane.
+// bridge_at_once: SystemOptions::bridge_where_alignment_fails.
 BlackoutRun run_blackout(bool use_imu, bool keep_depth = false, double approach_m = 0.0,
-                         std::optional<double> max_correction_chi2 = std::nullopt) {
+                         std::optional<double> max_correction_chi2 = std::nullopt,
+                         bool unknown_wall = false, bool bridge_at_once = true) {
   auto source = io::open_dataset("kestrel:" + office_dir());
   BlackoutRun out;
   out.truth = *source->ground_truth();
@@ -74,6 +121,7 @@ BlackoutRun run_blackout(bool use_imu, bool keep_depth = false, double approach_
   opt.use_imu = use_imu;
   opt.vocabulary.clear();  // odometry only: no loop correction afterwards
   if (max_correction_chi2) opt.depth_carry_max_correction_chi2 = *max_correction_chi2;
+  opt.bridge_where_alignment_fails = bridge_at_once;
   const Trajectory truth = out.truth;
   opt.initial_T_w_body = [truth](Timestamp t) -> std::optional<SE3> {
     for (std::size_t i = 0; i < truth.size(); ++i) {
@@ -85,7 +133,18 @@ BlackoutRun run_blackout(bool use_imu, bool keep_depth = false, double approach_
   Recorder rec;
   system.add_observer(&rec);
   int black_frames = 0;
+  std::optional<UnknownWall> wall;
+  const SE3 T_body_camera = source->calibration().T_body_camera;
+  const Mat3 K = source->calibration().camera.K();
   while (auto m = source->next()) {
+    if (auto* f = std::get_if<RgbdFrame>(&*m);
+        f && unknown_wall && to_seconds(f->t) >= kBlackTo - 1e-6) {
+      const auto T_w_body = opt.initial_T_w_body(f->t);
+      if (!T_w_body) throw Error("no ground truth at " + std::to_string(to_seconds(f->t)));
+      const SE3 T_w_c = *T_w_body * T_body_camera;
+      if (!wall) wall.emplace(T_w_c);
+      wall->render(*f, T_w_c, K);
+    }
     if (auto* f = std::get_if<RgbdFrame>(&*m); f && blacked_out(f->t)) {
       f->color = Image::allocate(f->color.width, f->color.height, f->color.channels, f->color.type);
       if (!keep_depth)
@@ -224,6 +283,38 @@ TEST(InertialTracking, DepthAndImuCarryTheFramesFeaturesCannotTrack) {
   }
   EXPECT_LT(worst, 0.05) << worst;
   EXPECT_EQ(r.reports.back().source, PoseSource::kVision);
+}
+
+// The blackout's frames are tracked frame to frame; then the lights come on facing a wall
+// nobody mapped, which neither the map nor alignment can track (corridor-dark's corner at the
+// end of its bare wall). That frame restarts the local map at the IMU's pose (a bridge) at
+// once, instead of being lost while the bridge waits a frame.
+TEST(InertialTracking, AFrameAlignmentCannotTrackBridgesAtOnce) {
+  for (const bool at_once : {true, false}) {
+    const BlackoutRun r = run_blackout(true, true, 0.0, std::nullopt, true, at_once);
+    ASSERT_EQ(r.reports.size(), 76u);
+    const auto wall = std::find_if(r.reports.begin(), r.reports.end(), [](const FrameReport& f) {
+      return to_seconds(f.t) >= kBlackTo - 1e-6;
+    });
+    ASSERT_NE(wall, r.reports.end());
+    ASSERT_EQ(std::prev(wall)->source, PoseSource::kFrameToFrame) << "the blackout's last frame";
+    if (at_once) {
+      EXPECT_EQ(wall->state, tracking::TrackingState::kOk);
+      EXPECT_EQ(wall->source, PoseSource::kBridged);
+    } else {
+      EXPECT_TRUE(wall->lost()) << to_string(wall->source);
+      EXPECT_EQ(std::next(wall)->source, PoseSource::kBridged) << "a frame later";
+    }
+    EXPECT_EQ(r.lost, at_once ? 0u : 1u);
+    EXPECT_EQ(r.counters.at("tracking.bridged"), 1u);
+    // The bridge starts at the IMU's pose, and the wall's frames are tracked from there.
+    double worst = 0.0;
+    for (std::size_t i = 0; i < r.trajectory.size(); ++i) {
+      if (r.trajectory.stamps[i] >= kBlackTo - 1e-6) worst = std::max(worst, position_error(r, i));
+    }
+    EXPECT_LT(worst, 0.05) << worst;
+    EXPECT_EQ(r.reports.back().source, PoseSource::kVision);
+  }
 }
 
 // In the dark, the depth sensor sees a mover filling the view come 6 cm nearer each frame: an
