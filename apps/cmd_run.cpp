@@ -5,6 +5,7 @@
 #include <fstream>
 #include <optional>
 #include <sstream>
+#include <string>
 
 #include "apps/commands.hpp"
 #include "core/error.hpp"

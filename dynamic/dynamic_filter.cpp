@@ -212,8 +212,10 @@ void flow_by_window(const std::vector<cv::Mat>& cur_levels, const std::vector<cv
       b_back.push_back(g_from[j]);
     }
     if (!need.empty()) {
+      cv::TermCriteria back_term = term;
+      if (opt.lk_backward_epsilon_px > 0.0) back_term.epsilon = opt.lk_backward_epsilon_px;
       cv::calcOpticalFlowPyrLK(prev_levels, cur_levels, b_from, b_back, b_st, cv::noArray(), win,
-                               backward_levels, term, cv::OPTFLOW_USE_INITIAL_FLOW);
+                               backward_levels, back_term, cv::OPTFLOW_USE_INITIAL_FLOW);
     }
     g_back = g_from;
     g_st_b.assign(group.size(), 1);

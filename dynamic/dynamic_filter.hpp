@@ -155,6 +155,20 @@ struct DynamicFilterOptions {
   // 20 steps never settle) gets a wrong one that the backward flow confirms. So the seed's 0.03.
   double lk_epsilon_px = 0.03;  // in the pixels of lk_base_level
   int lk_backward_levels = 3;
+  // The backward flow stops at steps below this (lk_base_level pixels; <= 0: lk_epsilon_px). It
+  // starts where the forward flow began and need only come back within fb_max_error_px (1 px) of
+  // it; the forward flow keeps its 0.03. bench_dynamic's cached hybrid row, interleaved three
+  // times: 3.52-3.57 -> 3.04-3.12 ms. kestrel bench dynamic (12 s, removed / kept): cafe 89.6 /
+  // 90.4, market 81.0 / 94.4, uav-zigzag 58.7 / 95.4%, all three the same to 0.1 pt. 60 s runs
+  // (APE m, 0.03 -> 0.2): corridor-dark seeds 1-9 0.084 / 0.160 / 0.052 / 0.084 / 0.066 / 0.062 /
+  // 0.093 / 0.072 / 0.067 -> 0.070 / 0.116 / 0.048 / 0.121 / 0.053 / 0.107 / 0.072 / 0.077 /
+  // 0.059 (none lost either way); market 1-4 0.049 / 0.060 / 0.035 / 0.028 -> 0.056 / 0.037 /
+  // 0.029 / 0.033 (lost 0 / 21 / 1 / 0 -> 6 / 6 / 0 / 0); uav-zigzag 1-5 0.066 / 0.070 / 0.034 /
+  // 0.038 / 0.059 -> 0.056 / 0.070 / 0.062 / 0.060 / 0.073; cafe 1-2 0.0048 / 0.0090 -> 0.0048 /
+  // 0.0060. Better on eleven draws, worse on eight, APE summed 1.195 -> 1.221 m, lost 22 -> 12:
+  // within what a null change moves these draws (fb_skip_gate_px below). 0.1 px flips one patch
+  // of IncoherentFlowIsUnknownWhileACoherentMoverIsRemoved to static, 0.2 does not.
+  double lk_backward_epsilon_px = 0.2;
   // Start the flow where the IMU rotation puts each point. Off: over whole bench scenes it
   // coincided with most movers' flow being lost (uav-zigzag no-flow 7.8k -> 67k features).
   bool lk_rotation_prior = false;
