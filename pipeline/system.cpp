@@ -452,7 +452,8 @@ struct System::Impl {
 
   // The pose of a frame features lost, by aligning its depth to the previous frame's, with
   // corners followed from it (SystemOptions::corner_tracks) and the IMU's motion since then as
-  // the prior (SystemOptions::depth_carry); none when depth cannot.
+  // the prior (SystemOptions::depth_carry); none when depth cannot, and `refused` set when the
+  // alignment moved the IMU's motion too far (depth_carry_max_correction_chi2).
   struct Carried {
     SE3 T_w_c;
     bool six_dof = false;  // depth and corner tracks fixed every direction, not the IMU
@@ -461,7 +462,8 @@ struct System::Impl {
   std::optional<Carried> depth_carry(const RgbdFrame& frame, const Image& ref_gray,
                                      const Image& cur_gray, const Image& ref_depth,
                                      double ref_scale, const SE3& predicted_T_w_c, Timestamp t_prev,
-                                     const std::vector<dynamic::BoxRegion>& boxes) {
+                                     const std::vector<dynamic::BoxRegion>& boxes, bool& refused) {
+    refused = false;
     if (!options.depth_carry || !may_carry(frame, ref_depth, t_prev)) return std::nullopt;
     const auto t0 = Clock::now();
     const std::vector<tracking::PixelBox> movers = mover_boxes(boxes);
@@ -490,7 +492,7 @@ struct System::Impl {
         e.tail<3>().squaredNorm() / (prior.rotation_sigma * prior.rotation_sigma);
     if (options.depth_carry_max_correction_chi2 > 0.0 &&
         correction_chi2 > options.depth_carry_max_correction_chi2) {
-      ++depth_carry_refused;
+      refused = true;
       return std::nullopt;
     }
     return Carried{*prev_T_w_c * r.T_ref_cur,
@@ -881,11 +883,12 @@ struct System::Impl {
     // During a frame-to-frame stretch the frame is aligned first, and the bridge held back only
     // for a frame that alignment tracks (SystemOptions::bridge_where_alignment_fails).
     std::optional<Carried> early_carry;
+    bool early_refused = false;
     const bool hold = prev_frame_to_frame && options.frame_to_frame_holds_bridge;
     const bool align_first = hold && options.bridge_where_alignment_fails && predicted.has_value();
     if (align_first) {
       early_carry = depth_carry(frame, ref_gray, gray, ref_depth, ref_depth_scale, *predicted,
-                                frame_t_prev, boxes);
+                                frame_t_prev, boxes, early_refused);
     }
     tracker.set_hold_bridge(hold && (!align_first || (early_carry && early_carry->six_dof)));
     if (prev_frame_to_frame) tracker.set_prior_gate_chi2(options.frame_to_frame_gate_chi2);
@@ -963,10 +966,12 @@ struct System::Impl {
     std::optional<SE3> depth_T_w_c;
     bool six_dof = false;
     if (tr.state == tracking::TrackingState::kLost && predicted) {
-      if (const auto c = align_first
-                             ? early_carry
-                             : depth_carry(frame, ref_gray, gray, ref_depth, ref_depth_scale,
-                                           *predicted, frame_t_prev, boxes)) {
+      bool refused = early_refused;
+      const auto c = align_first ? early_carry
+                                 : depth_carry(frame, ref_gray, gray, ref_depth, ref_depth_scale,
+                                               *predicted, frame_t_prev, boxes, refused);
+      if (refused) ++depth_carry_refused;
+      if (c) {
         depth_T_w_c = c->T_w_c;
         six_dof = c->six_dof;
       }
