@@ -163,11 +163,12 @@ struct DynamicFilterOptions {
   // (APE m, 0.03 -> 0.2): corridor-dark seeds 1-9 0.084 / 0.160 / 0.052 / 0.084 / 0.066 / 0.062 /
   // 0.093 / 0.072 / 0.067 -> 0.070 / 0.116 / 0.048 / 0.121 / 0.053 / 0.107 / 0.072 / 0.077 /
   // 0.059 (none lost either way); market 1-4 0.049 / 0.060 / 0.035 / 0.028 -> 0.056 / 0.037 /
-  // 0.029 / 0.033 (lost 0 / 21 / 1 / 0 -> 6 / 6 / 0 / 0); uav-zigzag 1-5 0.066 / 0.070 / 0.034 /
-  // 0.038 / 0.059 -> 0.056 / 0.070 / 0.062 / 0.060 / 0.073; cafe 1-2 0.0048 / 0.0090 -> 0.0048 /
-  // 0.0060. Better on eleven draws, worse on eight, APE summed 1.195 -> 1.221 m, lost 22 -> 12:
-  // within what a null change moves these draws (fb_skip_gate_px below). 0.1 px flips one patch
-  // of IncoherentFlowIsUnknownWhileACoherentMoverIsRemoved to static, 0.2 does not.
+  // 0.029 / 0.033 (lost 0 / 21 / 1 / 0 -> 6 / 6 / 0 / 0); uav-zigzag 1-8 0.066 / 0.070 / 0.034 /
+  // 0.038 / 0.059 / 0.052 / 0.147 / 0.114 -> 0.056 / 0.070 / 0.062 / 0.060 / 0.073 / 0.048 /
+  // 0.071 / 0.061; cafe 1-2 0.0048 / 0.0090 -> 0.0048 / 0.0060. Better on thirteen draws, worse
+  // on eight, two within 0.5 mm; APE summed 1.507 -> 1.393 m, lost 22 -> 12: within what a null
+  // change moves these draws (fb_skip_gate_px below). 0.1 px flips one patch of
+  // IncoherentFlowIsUnknownWhileACoherentMoverIsRemoved to static, 0.2 does not.
   double lk_backward_epsilon_px = 0.2;
   // Start the flow where the IMU rotation puts each point. Off: over whole bench scenes it
   // coincided with most movers' flow being lost (uav-zigzag no-flow 7.8k -> 67k features).
