@@ -88,6 +88,9 @@ TEST(LiveRun, ACameraFasterThanTheTrackerHasItsSurplusFramesDropped) {
   const nlohmann::json timing = nlohmann::json::parse(s.timing_json);
   EXPECT_EQ(timing["counters"]["frames.dropped"].get<std::size_t>(), s.dropped);
   EXPECT_EQ(nlohmann::json::parse(summary_json(s))["dropped"].get<std::size_t>(), s.dropped);
+  // Frames that restarted the local map are tracked, and the summary says how many.
+  EXPECT_EQ(s.bridged, s.counters.at("tracking.bridged"));
+  EXPECT_EQ(nlohmann::json::parse(summary_json(s))["bridged"].get<std::size_t>(), s.bridged);
 }
 
 TEST(LiveRun, WithoutDroppingEveryFrameIsFedAndTheSourceWaits) {
