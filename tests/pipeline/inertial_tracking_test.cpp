@@ -67,7 +67,7 @@ class Recorder : public Observer {
 struct UnknownWall {
   Vec3 origin, x_axis, y_axis, normal;
 
-  UnknownWall(const SE3& T_w_c) {
+  explicit UnknownWall(const SE3& T_w_c) {
     const Mat3 R = T_w_c.rotation();
     x_axis = R.col(0);
     y_axis = R.col(1);
@@ -91,8 +91,13 @@ struct UnknownWall {
       std::uint8_t* rgb = f.color.row<std::uint8_t>(v);
       std::uint16_t* depth = f.depth.row<std::uint16_t>(v);
       for (int u = 0; u < f.color.width; ++u) {
-        const Vec3 ray_c = Kinv * Vec3(u + 0.5, v + 0.5, 1.0);  // z = 1: s is the depth
+        const Vec3 ray_c = Kinv * Vec3(u, v, 1.0);  // z = 1: s is the depth
         const double s = (origin - C).dot(normal) / (R * ray_c).dot(normal);
+        if (!(s > 0.0)) {  // the ray misses the wall (never, over the test's second)
+          for (int c = 0; c < f.color.channels; ++c) rgb[u * f.color.channels + c] = 0;
+          depth[u] = 0;
+          continue;
+        }
         const Vec3 X = C + s * (R * ray_c) - origin;
         const std::uint8_t g = blotch(std::lround(std::floor(X.dot(x_axis) / 0.01)),
                                       std::lround(std::floor(X.dot(y_axis) / 0.01)));
