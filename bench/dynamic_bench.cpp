@@ -7,6 +7,10 @@
 // HalfResLk runs the flow on the half-resolution image (lk_base_level 1, 9 px window, 2 levels
 // above it, 10 iterations to 0.1 px) in place of the seed's default (15 px window at full
 // resolution, 3 levels above it, 20 iterations to 0.03 px), for the ratio between the two.
+// The rows above hand the filter the gyro's rotation but not the IMU's translation; the System
+// hands it both in RGB-D + IMU (its default on Kestrel sequences) and neither in plain RGB-D,
+// so two more rows time exactly those inputs: Imu (the rotation, the predicted translation with
+// its sigma, the current depth image) and NoImu (depth images only).
 // Removal figures against the masks come from `kestrel bench dynamic`.
 #include <benchmark/benchmark.h>
 
@@ -18,6 +22,7 @@
 #include <vector>
 
 #include "detect/dynamic_classes.hpp"
+#include "pipeline/system.hpp"
 #include "dynamic/dynamic_filter.hpp"
 #include "io/cv_image.hpp"
 #include "sim/scenario.hpp"
@@ -29,8 +34,13 @@ namespace {
 using namespace kestrel;
 
 struct Pair {
-  Image prev_gray, cur_gray, prev_depth;
+  Image prev_gray, cur_gray, prev_depth, cur_depth;
   dynamic::DynamicFilterInput input;  // pointers into this struct: never copied
+  // What the System adds in RGB-D + IMU: the IMU's translation since the previous frame (here
+  // the true one: the predictor's millimetres of error do not change the work) and its sigmas
+  // one frame after a fix, as the System computes them.
+  Vec3 t_cur_prev = Vec3::Zero();
+  pipeline::InertialPriorSigmas sigmas{};
 };
 
 Image gray_of(const Image& color) {
@@ -51,6 +61,7 @@ const Pair& cafe_pair() {
     p->prev_gray = gray_of(f0.color);
     p->cur_gray = gray_of(f1.color);
     p->prev_depth = f0.depth;
+    p->cur_depth = f1.depth;
     const tracking::FeatureExtractor extractor(calib.camera);
     const tracking::FrameFeatures ff =
         extractor.extract(f1.color, nullptr, &f1.depth, calib.depth_scale);
@@ -63,6 +74,8 @@ const Pair& cafe_pair() {
     const SE3 T_w_c0 = f0.body.T_w_b * calib.T_body_camera;
     const SE3 T_w_c1 = f1.body.T_w_b * calib.T_body_camera;
     in.R_cur_prev = (T_w_c1.inverse() * T_w_c0).rotation();
+    p->t_cur_prev = (T_w_c1.inverse() * T_w_c0).translation();
+    p->sigmas = pipeline::inertial_prior_sigmas(pipeline::SystemOptions{}, f1.time - f0.time);
     in.prev_depth = &p->prev_depth;
     in.depth_scale = calib.depth_scale;
     for (const sim::SimBox& b : f1.boxes) {
@@ -81,12 +94,22 @@ double median(std::vector<double> v) {
   return v[v.size() / 2];
 }
 
+// Which of the System's inputs a row hands the filter (see the top of this file).
+enum class Inputs { kGyro, kImu, kNoImu };
+
 void run(benchmark::State& state, dynamic::FilterMode mode, bool boxes, bool cached,
-         bool half_res_lk = false) {
+         bool half_res_lk = false, Inputs inputs = Inputs::kGyro) {
   cv::setNumThreads(1);
   const Pair& pair = cafe_pair();
   dynamic::DynamicFilterInput in = pair.input;
   if (!boxes) in.boxes.clear();
+  if (inputs != Inputs::kGyro) in.cur_depth = &pair.cur_depth;
+  if (inputs == Inputs::kNoImu) in.R_cur_prev.reset();
+  if (inputs == Inputs::kImu) {
+    in.t_cur_prev = pair.t_cur_prev;
+    in.prior_translation_sigma_m = pair.sigmas.translation_m;
+    in.prior_rotation_sigma_rad = pair.sigmas.rotation_rad;
+  }
   dynamic::DynamicFilterOptions opt;
   opt.mode = mode;
   if (half_res_lk) dynamic::use_half_resolution_flow(opt);
@@ -128,9 +151,17 @@ void BM_DynamicFilterGeometryCachedPyramid(benchmark::State& s) {
 void BM_DynamicFilterHybridCachedPyramidHalfResLk(benchmark::State& s) {
   run(s, dynamic::FilterMode::kHybrid, true, true, true);
 }
+void BM_DynamicFilterHybridCachedPyramidImu(benchmark::State& s) {
+  run(s, dynamic::FilterMode::kHybrid, true, true, false, Inputs::kImu);
+}
+void BM_DynamicFilterHybridCachedPyramidNoImu(benchmark::State& s) {
+  run(s, dynamic::FilterMode::kHybrid, true, true, false, Inputs::kNoImu);
+}
 BENCHMARK(BM_DynamicFilterHybrid)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_DynamicFilterHybridCachedPyramid)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_DynamicFilterHybridCachedPyramidHalfResLk)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_DynamicFilterHybridCachedPyramidImu)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_DynamicFilterHybridCachedPyramidNoImu)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_DynamicFilterGeometry)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_DynamicFilterGeometryCachedPyramid)->Unit(benchmark::kMillisecond);
 
