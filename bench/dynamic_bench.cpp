@@ -22,9 +22,9 @@
 #include <vector>
 
 #include "detect/dynamic_classes.hpp"
-#include "pipeline/system.hpp"
 #include "dynamic/dynamic_filter.hpp"
 #include "io/cv_image.hpp"
+#include "pipeline/system.hpp"
 #include "sim/scenario.hpp"
 #include "sim/simulator.hpp"
 #include "tracking/feature_extractor.hpp"
