@@ -9,6 +9,7 @@
 
 #include "apps/commands.hpp"
 #include "core/error.hpp"
+#include "detect/box_coasting.hpp"
 #include "eval/report/run_report.hpp"
 #include "io/dataset.hpp"
 #include "io/image_io.hpp"
@@ -44,6 +45,7 @@ struct RunFlags {
   bool no_depth_carry = false;
   bool no_corner_tracks = false;
   bool no_park = false;
+  int carry_boxes = kestrel::detect::BoxCoastOptions{}.max_frames;
   bool realtime = false;
   int max_in_flight = 2;
   double duration = -1.0;  // sim: scenes only
@@ -259,6 +261,11 @@ void setup_run(CLI::App& app) {
                 "no gyro rotation prior in the per-frame pose optimization");
   cmd->add_flag("--no-park", flags->no_park,
                 "vehicles are movers even when they stand still (no parked vehicles in the maps)");
+  cmd->add_option("--carry-boxes", flags->carry_boxes,
+                  "N: a mover's box is carried over up to N frames its detection misses, along its "
+                  "image motion (0: off)")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 30));
   cmd->add_flag("--half-res-flow", flags->half_resolution_flow,
                 "the dynamic filter's flow on the half-resolution image: a quarter of the cost");
   cmd->add_option("--imu-vouched-flow", flags->flow_skip_gate_px,
@@ -322,6 +329,7 @@ void setup_run(CLI::App& app) {
     opt.depth_carry = !flags->no_depth_carry;
     opt.corner_tracks = !flags->no_corner_tracks;
     opt.park_vehicles = !flags->no_park;
+    opt.carried_box_frames = flags->carry_boxes;
     const RunSummary summary = kestrel::pipeline::run_sequence(*source, opt);
     print_summary("run", summary);
     kestrel::report::ReportInput report;

@@ -129,6 +129,7 @@ DynamicEvalResult evaluate_dynamic_filter(const DynamicEvalScene& scene,
           ? detect::DynamicClassList(detect::default_parkable_classes())
           : detect::DynamicClassList(options.parkable_classes);
   dynamic::ParkedBoxTracker parked(options.parked);
+  detect::BoxCoaster coaster(options.box_coasting);
   DynamicEvalResult out;
   // The last judged frame's pyramid, the next one's previous (as the System keeps it); the
   // filter checks it was built from the image it is given as previous and rebuilds otherwise.
@@ -171,12 +172,17 @@ DynamicEvalResult evaluate_dynamic_filter(const DynamicEvalScene& scene,
         throw Error("evaluate_dynamic_filter: detector index " + std::to_string(options.detector) +
                     " out of range (" + std::to_string(f.detections.size()) + " loaded)");
       }
-      std::vector<bool> parkable_box;
+      std::vector<detect::Detection> dets;
       for (const auto& d : f.detections[static_cast<std::size_t>(options.detector)].boxes) {
-        if (classes.is_dynamic_class(d.label)) {
-          in.boxes.push_back({d.x_min, d.y_min, d.x_max, d.y_max});
-          parkable_box.push_back(parkable.is_dynamic_class(d.label));
-        }
+        if (classes.is_dynamic_class(d.label)) dets.push_back(d);
+      }
+      for (auto& d : coaster.update(f.t, dets, f.gray.width, f.gray.height)) {
+        dets.push_back(std::move(d));
+      }
+      std::vector<bool> parkable_box;
+      for (const auto& d : dets) {
+        in.boxes.push_back({d.x_min, d.y_min, d.x_max, d.y_max});
+        parkable_box.push_back(parkable.is_dynamic_class(d.label));
       }
       if (options.park_vehicles) parked.assign(f.t, in.boxes, parkable_box);
     }

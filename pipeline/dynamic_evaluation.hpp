@@ -14,6 +14,7 @@
 #include "core/eigen_types.hpp"
 #include "core/image.hpp"
 #include "core/timestamp.hpp"
+#include "detect/box_coasting.hpp"
 #include "detect/detection.hpp"
 #include "detect/detector.hpp"
 #include "dynamic/dynamic_filter.hpp"
@@ -63,6 +64,9 @@ struct DynamicEvalOptions {
   bool park_vehicles = true;
   std::vector<std::string> parkable_classes;  // empty: detect::default_parkable_classes()
   dynamic::ParkedBoxOptions parked;
+  // A mover's box carried across the frames its detection misses, as the System does
+  // (SystemOptions::box_coasting).
+  detect::BoxCoastOptions box_coasting;
   bool prev_depth = true;  // give the filter the previous frame's depth image
   // Give the filter the IMU's predicted translation (DynamicEvalFrame::t_cur_prev), as the System
   // does (SystemOptions::dynamic_motion_prior); only against the previous frame (gap 1).

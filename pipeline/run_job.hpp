@@ -9,6 +9,7 @@
 
 #include "core/frame.hpp"
 #include "core/trajectory.hpp"
+#include "detect/box_coasting.hpp"
 #include "detect/oracle_detector.hpp"
 #include "detect/yolo_fastest.hpp"
 #include "dynamic/dynamic_filter.hpp"
@@ -41,6 +42,8 @@ struct RunOptions {
   bool park_vehicles = true;          // SystemOptions::park_vehicles
   std::string out_dir;                // trajectory.txt, timing.json, summary.json
   std::string models_dir;             // "" = find ../shared/models
+  // SystemOptions::box_coasting.max_frames
+  int carried_box_frames = detect::BoxCoastOptions{}.max_frames;
   bool progress = true;
   std::string progress_label;    // printed before the bar when not empty
   std::size_t strip_frames = 4;  // frames kept (evenly spread) for the report's strip

@@ -123,6 +123,7 @@ struct System::Impl {
   detect::DynamicClassList dynamic_classes;
   detect::DynamicClassList parkable_classes;
   dynamic::ParkedBoxTracker parked_boxes;  // tracking thread
+  detect::BoxCoaster box_coaster;          // tracking thread
   tracking::Tracker tracker;
   std::unique_ptr<tracking::StereoMatcher> stereo;  // stereo calibrations only
 
@@ -248,6 +249,7 @@ struct System::Impl {
                              ? detect::DynamicClassList(detect::default_parkable_classes())
                              : detect::DynamicClassList(options.parkable_classes)),
         parked_boxes(options.parked),
+        box_coaster(options.box_coasting),
         tracker(c.camera,
                 [&] {
                   tracking::TrackerOptions t = options.tracker;
@@ -750,13 +752,18 @@ struct System::Impl {
       if (set) {
         for (const auto& d : set->boxes) {
           if (dynamic_classes.is_dynamic_class(d.label)) {
-            boxes.push_back({d.x_min, d.y_min, d.x_max, d.y_max});
             dynamic_dets.push_back(d);
           } else {
             static_dets.push_back(d);
           }
         }
       }
+      // Movers whose detection this frame misses (or that no detection matched) keep a box.
+      std::vector<detect::Detection> carried =
+          box_coaster.update(frame.t, dynamic_dets, frame.color.width, frame.color.height);
+      stats.count("detection.carried_boxes", carried.size());
+      for (auto& d : carried) dynamic_dets.push_back(std::move(d));
+      for (const auto& d : dynamic_dets) boxes.push_back({d.x_min, d.y_min, d.x_max, d.y_max});
       detections.tracked_up_to(frame.t);
       for (const auto& d : dynamic_dets)
         parkable.push_back(options.park_vehicles && parkable_classes.is_dynamic_class(d.label));

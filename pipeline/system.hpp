@@ -19,6 +19,7 @@
 #include "core/calibration.hpp"
 #include "core/frame.hpp"
 #include "core/trajectory.hpp"
+#include "detect/box_coasting.hpp"
 #include "detect/detector.hpp"
 #include "dynamic/dynamic_filter.hpp"
 #include "dynamic/parked_boxes.hpp"
@@ -47,6 +48,9 @@ struct SystemOptions {
   bool park_vehicles = true;
   std::vector<std::string> parkable_classes;  // empty: detect::default_parkable_classes()
   dynamic::ParkedBoxOptions parked;
+  // A mover's box is carried across the frames its detection misses (detect/box_coasting.hpp):
+  // predicted from its image velocity for up to box_coasting.max_frames frames.
+  detect::BoxCoastOptions box_coasting;
   // World frame: the body pose this returns for the first frame's stamp (e.g. the ground
   // truth's, so maps and objects compare with a simulated world); when it is unset or returns
   // nothing, gravity-aligned from the IMU, else the first camera pose.

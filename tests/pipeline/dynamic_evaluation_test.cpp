@@ -27,7 +27,11 @@ TEST(DynamicEvaluation, ModesOnARenderedCafe) {
   sim::Simulator sim(sim::load_scenario("cafe", over));
   sim::record_sequence(sim, dir);
   detect::OracleDetector oracle(io::read_boxes(dir + "/boxes.csv"));
-  const DynamicEvalScene scene = load_dynamic_eval_scene(dir, {&oracle}, 12);
+  // The same boxes, each dropped on half the frames.
+  detect::OracleOptions flaky_options;
+  flaky_options.false_negative_rate = 0.5;
+  detect::OracleDetector flaky(io::read_boxes(dir + "/boxes.csv"), flaky_options);
+  const DynamicEvalScene scene = load_dynamic_eval_scene(dir, {&oracle, &flaky}, 12);
   ASSERT_EQ(scene.frames.size(), 12u);
   EXPECT_FALSE(scene.frames[1].depth.empty());
   EXPECT_TRUE(scene.frames[1].R_cur_prev.has_value());  // the gyro between the two frames
@@ -55,11 +59,13 @@ TEST(DynamicEvaluation, ModesOnARenderedCafe) {
     EXPECT_GE(with_translation, 4);  // from 0.2 s of fixes on
   }
 
-  const auto run = [&](dynamic::FilterMode mode, int detector, int long_gap = 0) {
+  const auto run = [&](dynamic::FilterMode mode, int detector, int long_gap = 0,
+                       int carried_frames = detect::BoxCoastOptions{}.max_frames) {
     DynamicEvalOptions opt;
     opt.filter.mode = mode;
     opt.detector = detector;
     opt.long_gap = long_gap;
+    opt.box_coasting.max_frames = carried_frames;
     return evaluate_dynamic_filter(scene, opt);
   };
   const DynamicEvalResult off = run(dynamic::FilterMode::kOff, -1);
@@ -82,6 +88,12 @@ TEST(DynamicEvaluation, ModesOnARenderedCafe) {
   // Multi-frame evidence only adds removals.
   EXPECT_GE(multi.counts.dynamic_removed, hybrid.counts.dynamic_removed);
   EXPECT_LE(multi.counts.static_kept, hybrid.counts.static_kept);
+
+  // A detector that misses boxes: the movers' boxes carried over its misses remove more of
+  // them than its boxes alone do.
+  const DynamicEvalResult flaky_carried = run(dynamic::FilterMode::kHybrid, 1);
+  const DynamicEvalResult flaky_alone = run(dynamic::FilterMode::kHybrid, 1, 0, 0);
+  EXPECT_GT(flaky_carried.counts.dynamic_removed, flaky_alone.counts.dynamic_removed);
 
   DynamicEvalOptions bad;
   bad.detector = 3;
