@@ -282,14 +282,14 @@ struct FrameReport {
   int inliers = 0;
   int local_points = 0;    // the local map tracking matched against (TrackResult)
   int visible_points = 0;  // of those, in view at the final (lost: predicted) pose
-  int detections = 0;      // dynamic-class boxes matched to this frame
+  int detections = 0;      // dynamic-class boxes matched to this frame, carried ones too
   bool keyframe = false;
   double latency_ms = 0.0;         // frame arrival to pose
   dynamic::RemovalCounts removal;  // against the truth mask, when one is provided
   // What the filter decided, for debug images and the report's frame strip.
   std::vector<Vec2> feature_px;
   std::vector<std::uint8_t> feature_dynamic;  // 1 = rejected as dynamic
-  std::vector<dynamic::BoxRegion> boxes;      // dynamic-class detections matched to the frame
+  std::vector<dynamic::BoxRegion> boxes;      // ... and their regions (BoxCoaster's included)
 
   // What the camera saw did not fix the pose: the map lost it and it was not tracked frame to
   // frame either (System::frames_lost counts these).
