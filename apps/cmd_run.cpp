@@ -32,6 +32,7 @@ struct RunFlags {
   std::string dataset;
   std::string out;
   std::string config;
+  std::string load_map;
   std::string detector = "yolo";
   std::string yolo_model = kestrel::detect::to_string(kestrel::detect::kPipelineYoloModel);
   std::string dynamic = "hybrid";
@@ -233,6 +234,10 @@ void setup_run(CLI::App& app) {
       ->required();
   cmd->add_option("--config", flags->config, "calibration / settings YAML")
       ->check(CLI::ExistingFile);
+  cmd->add_option("--load-map", flags->load_map,
+                  "map.bin of an earlier session: tracking starts lost and relocalizes in it "
+                  "(multi-session); the run extends and saves that map")
+      ->check(CLI::ExistingFile);
   cmd->add_option("--detector", flags->detector, "yolo | oracle | none")
       ->check(CLI::IsMember({"yolo", "oracle", "none"}));
   cmd->add_option("--yolo-model", flags->yolo_model,
@@ -320,6 +325,7 @@ void setup_run(CLI::App& app) {
     opt.memory_sample_s = 1.0;
     opt.out_dir = flags->out;
     opt.mode = flags->mode;
+    opt.load_map = flags->load_map;
     opt.loop_closing = !flags->no_loop;
     opt.triangulate = flags->triangulate;
     opt.half_resolution_flow = flags->half_resolution_flow;

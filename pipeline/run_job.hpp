@@ -42,6 +42,7 @@ struct RunOptions {
   bool park_vehicles = true;          // SystemOptions::park_vehicles
   std::string out_dir;                // trajectory.txt, timing.json, summary.json
   std::string models_dir;             // "" = find ../shared/models
+  std::string load_map;               // SystemOptions::load_map: map.bin of an earlier session
   // SystemOptions::box_coasting.max_frames
   int carried_box_frames = detect::BoxCoastOptions{}.max_frames;
   bool progress = true;

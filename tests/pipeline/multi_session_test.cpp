@@ -1,0 +1,90 @@
+// Multi-session (RunOptions::load_map, `kestrel run --load-map`): a run saves its map; a later
+// run of the same world that starts elsewhere, with no ground truth to place it, loads that map,
+// relocalizes in it within a second and then tracks where the first run put the same frames.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <variant>
+#include <vector>
+
+#include "pipeline/run_job.hpp"
+#include "sim/live_source.hpp"
+#include "sim/scenario.hpp"
+#include "tests/test_paths.hpp"
+
+namespace kestrel::pipeline {
+namespace {
+
+// The measurements of `items` from `from_s` on, with or without the truth.
+class SliceSource : public io::MeasurementSource {
+ public:
+  SliceSource(const Calibration& calib, const std::vector<Measurement>& items, double from_s,
+              std::optional<Trajectory> truth)
+      : calib_(calib), truth_(std::move(truth)) {
+    for (const Measurement& m : items) {
+      const Timestamp t = std::visit([](const auto& x) { return x.t; }, m);
+      if (to_seconds(t) < from_s) continue;
+      if (!std::holds_alternative<ImuSample>(m)) ++frames_;
+      items_.push_back(m);
+    }
+  }
+  std::optional<Measurement> next() override {
+    if (at_ >= items_.size()) return std::nullopt;
+    return items_[at_++];
+  }
+  const Calibration& calibration() const override { return calib_; }
+  std::optional<Trajectory> ground_truth() const override { return truth_; }
+  std::size_t frame_count() const override { return frames_; }
+  std::string describe() const override { return "slice"; }
+
+ private:
+  Calibration calib_;
+  std::optional<Trajectory> truth_;
+  std::vector<Measurement> items_;
+  std::size_t frames_ = 0, at_ = 0;
+};
+
+TEST(MultiSession, ALaterRunStartingElsewhereRelocalizesInTheSavedMap) {
+  sim::ScenarioOverrides over;
+  over.duration = 8.0;
+  sim::LiveSource live(sim::load_scenario("office-static", over));
+  const Calibration calib = live.calibration();
+  const std::optional<Trajectory> truth = live.ground_truth();
+  std::vector<Measurement> items;
+  while (auto m = live.next()) items.push_back(std::move(*m));
+
+  RunOptions opt;
+  opt.detector = "none";
+  opt.progress = false;
+  opt.strip_frames = 0;
+  const std::filesystem::path dir = test::temp_dir("multi_session");
+  opt.out_dir = (dir / "first").string();
+  SliceSource first_source(calib, items, 0.0, truth);
+  const RunSummary first = run_sequence(first_source, opt);
+  ASSERT_EQ(first.lost, 0u);
+  ASSERT_TRUE(std::filesystem::exists(dir / "first" / "map.bin"));
+
+  // Halfway through, nothing to say where it is but the map.
+  opt.out_dir = (dir / "second").string();
+  opt.load_map = (dir / "first" / "map.bin").string();
+  SliceSource second_source(calib, items, 4.0, std::nullopt);
+  const RunSummary second = run_sequence(second_source, opt);
+  ASSERT_GT(second.frames, 100u);
+  EXPECT_GE(second.tracked + 30, second.frames);  // relocalized within a second (30 frames)
+  // Where the first run put the same frames: the same world, to a few millimetres.
+  std::size_t close = 0, compared = 0;
+  for (std::size_t k = 0; k < second.trajectory.size(); ++k) {
+    const auto i = nearest_pose(first.trajectory, second.trajectory.stamps[k], 1e-3);
+    if (!i) continue;
+    ++compared;
+    const double d =
+        (second.trajectory.poses[k].translation() - first.trajectory.poses[*i].translation())
+            .norm();
+    if (d < 0.05) ++close;
+  }
+  EXPECT_GE(compared, second.frames - 1);
+  EXPECT_GE(close + 30, second.frames) << close << " of " << compared << " within 5 cm";
+}
+
+}  // namespace
+}  // namespace kestrel::pipeline
