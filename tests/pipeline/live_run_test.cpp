@@ -13,35 +13,12 @@
 #include "pipeline/run_job.hpp"
 #include "sim/live_source.hpp"
 #include "sim/scenario.hpp"
+#include "tests/pipeline/replay_source.hpp"
 
 namespace kestrel::pipeline {
 namespace {
 
-class ReplaySource : public io::MeasurementSource {
- public:
-  explicit ReplaySource(io::MeasurementSource& from)
-      : calib_(from.calibration()), truth_(from.ground_truth()) {
-    while (auto m = from.next()) {
-      if (!std::holds_alternative<ImuSample>(*m)) ++frames_;
-      items_.push_back(std::move(*m));
-    }
-  }
-  std::optional<Measurement> next() override {
-    if (at_ >= items_.size()) return std::nullopt;
-    return items_[at_++];
-  }
-  const Calibration& calibration() const override { return calib_; }
-  std::optional<Trajectory> ground_truth() const override { return truth_; }
-  std::size_t frame_count() const override { return frames_; }
-  std::string describe() const override { return "replay"; }
-  void rewind() { at_ = 0; }
-
- private:
-  Calibration calib_;
-  std::optional<Trajectory> truth_;
-  std::vector<Measurement> items_;
-  std::size_t frames_ = 0, at_ = 0;
-};
+using test::ReplaySource;
 
 ReplaySource& office_second() {
   static ReplaySource* source = [] {

@@ -10,39 +10,11 @@
 #include "pipeline/run_job.hpp"
 #include "sim/live_source.hpp"
 #include "sim/scenario.hpp"
+#include "tests/pipeline/replay_source.hpp"
 #include "tests/test_paths.hpp"
 
 namespace kestrel::pipeline {
 namespace {
-
-// The measurements of `items` from `from_s` on, with or without the truth.
-class SliceSource : public io::MeasurementSource {
- public:
-  SliceSource(const Calibration& calib, const std::vector<Measurement>& items, double from_s,
-              std::optional<Trajectory> truth)
-      : calib_(calib), truth_(std::move(truth)) {
-    for (const Measurement& m : items) {
-      const Timestamp t = std::visit([](const auto& x) { return x.t; }, m);
-      if (to_seconds(t) < from_s) continue;
-      if (!std::holds_alternative<ImuSample>(m)) ++frames_;
-      items_.push_back(m);
-    }
-  }
-  std::optional<Measurement> next() override {
-    if (at_ >= items_.size()) return std::nullopt;
-    return items_[at_++];
-  }
-  const Calibration& calibration() const override { return calib_; }
-  std::optional<Trajectory> ground_truth() const override { return truth_; }
-  std::size_t frame_count() const override { return frames_; }
-  std::string describe() const override { return "slice"; }
-
- private:
-  Calibration calib_;
-  std::optional<Trajectory> truth_;
-  std::vector<Measurement> items_;
-  std::size_t frames_ = 0, at_ = 0;
-};
 
 TEST(MultiSession, ALaterRunStartingElsewhereRelocalizesInTheSavedMap) {
   sim::ScenarioOverrides over;
@@ -50,8 +22,7 @@ TEST(MultiSession, ALaterRunStartingElsewhereRelocalizesInTheSavedMap) {
   sim::LiveSource live(sim::load_scenario("office-static", over));
   const Calibration calib = live.calibration();
   const std::optional<Trajectory> truth = live.ground_truth();
-  std::vector<Measurement> items;
-  while (auto m = live.next()) items.push_back(std::move(*m));
+  const std::vector<Measurement> items = test::ReplaySource::drain(live);
 
   RunOptions opt;
   opt.detector = "none";
@@ -59,7 +30,7 @@ TEST(MultiSession, ALaterRunStartingElsewhereRelocalizesInTheSavedMap) {
   opt.strip_frames = 0;
   const std::filesystem::path dir = test::temp_dir("multi_session");
   opt.out_dir = (dir / "first").string();
-  SliceSource first_source(calib, items, 0.0, truth);
+  test::ReplaySource first_source(calib, items, truth);
   const RunSummary first = run_sequence(first_source, opt);
   ASSERT_EQ(first.lost, 0u);
   ASSERT_TRUE(std::filesystem::exists(dir / "first" / "map.bin"));
@@ -67,7 +38,7 @@ TEST(MultiSession, ALaterRunStartingElsewhereRelocalizesInTheSavedMap) {
   // Halfway through, nothing to say where it is but the map.
   opt.out_dir = (dir / "second").string();
   opt.load_map = (dir / "first" / "map.bin").string();
-  SliceSource second_source(calib, items, 4.0, std::nullopt);
+  test::ReplaySource second_source(calib, items, std::nullopt, 4.0);
   const RunSummary second = run_sequence(second_source, opt);
   ASSERT_GT(second.frames, 100u);
   EXPECT_GE(second.tracked + 30, second.frames);  // relocalized within a second (30 frames)
