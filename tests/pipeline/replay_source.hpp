@@ -12,18 +12,17 @@ namespace kestrel::test {
 
 class ReplaySource : public io::MeasurementSource {
  public:
-  // Everything `from` gives, with its ground truth.
+  // Everything `from` gives, with its ground truth (taken first: a live source's truth is the
+  // recent stretch of what it rendered).
   explicit ReplaySource(io::MeasurementSource& from)
-      : ReplaySource(from.calibration(), drain(from), from.ground_truth()) {}
+      : calib_(from.calibration()), truth_(from.ground_truth()) {
+    add(drain(from), 0.0);
+  }
   // `items` stamped `from_s` or later, with `truth` as the ground truth (none: nullopt).
   ReplaySource(const Calibration& calib, const std::vector<Measurement>& items,
                std::optional<Trajectory> truth, double from_s = 0.0)
       : calib_(calib), truth_(std::move(truth)) {
-    for (const Measurement& m : items) {
-      if (to_seconds(std::visit([](const auto& x) { return x.t; }, m)) < from_s) continue;
-      if (!std::holds_alternative<ImuSample>(m)) ++frames_;
-      items_.push_back(m);
-    }
+    add(items, from_s);
   }
   static std::vector<Measurement> drain(io::MeasurementSource& from) {
     std::vector<Measurement> out;
@@ -42,6 +41,14 @@ class ReplaySource : public io::MeasurementSource {
   void rewind() { at_ = 0; }
 
  private:
+  void add(const std::vector<Measurement>& items, double from_s) {
+    for (const Measurement& m : items) {
+      if (to_seconds(std::visit([](const auto& x) { return x.t; }, m)) < from_s) continue;
+      if (!std::holds_alternative<ImuSample>(m)) ++frames_;
+      items_.push_back(m);
+    }
+  }
+
   Calibration calib_;
   std::optional<Trajectory> truth_;
   std::vector<Measurement> items_;
