@@ -193,6 +193,14 @@ void print_summary(const char* name, const RunSummary& s) {
   }
   if (s.ape_rmse_m >= 0) std::printf(", APE RMSE %.4f m (%zu pairs)", s.ape_rmse_m, s.ape_pairs);
   std::printf("\n");
+  if (s.map_relocalized_after_s) {
+    if (*s.map_relocalized_after_s >= 0) {
+      std::printf("  relocalized in the loaded map %.2f s after the first frame\n",
+                  *s.map_relocalized_after_s);
+    } else {
+      std::printf("  never relocalized in the loaded map\n");
+    }
+  }
   if (s.has_truth_masks) {
     std::printf("  dynamic features removed %.1f%% (%zu), static kept %.1f%% (%zu)\n",
                 s.removal.removed_percent(), s.removal.dynamic_total, s.removal.kept_percent(),

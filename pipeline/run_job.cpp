@@ -61,6 +61,19 @@ class RunObserver : public Observer {
     std::lock_guard lock(mutex_);
     return objects_;
   }
+  // Seconds from the first reported frame to the first one relocalized; nullopt: none was.
+  std::optional<double> first_relocalized_after_s() {
+    std::lock_guard lock(mutex_);
+    if (rows_.empty()) return std::nullopt;
+    Timestamp first = rows_.front().t;
+    for (const Row& row : rows_) first = std::min(first, row.t);
+    std::optional<Timestamp> at;
+    for (const Row& row : rows_) {
+      if (row.state == tracking::TrackingState::kRelocalized && (!at || row.t < *at)) at = row.t;
+    }
+    if (!at) return std::nullopt;
+    return to_seconds(*at - first);
+  }
   // Called from the feeding thread for a frame that is not fed (a live run's drop).
   void skip() { advance("dropping"); }
   std::size_t reported() const { return reported_.load(); }
@@ -285,6 +298,9 @@ RunSummary run_sequence(io::MeasurementSource& source, const RunOptions& options
     summary.bridged = it->second;
   }
   summary.tracked = traj.size() - std::min(traj.size(), summary.inertial_only);
+  if (!options.load_map.empty()) {
+    summary.map_relocalized_after_s = observer.first_relocalized_after_s().value_or(-1.0);
+  }
   summary.removal = system.removal();
   const auto stages = system.stats().summaries();
   double per_frame = 0.0;
@@ -360,6 +376,7 @@ std::string summary_json(const RunSummary& s) {
   j["depth_imu"] = s.depth_imu;
   j["frame_to_frame"] = s.frame_to_frame;
   j["bridged"] = s.bridged;
+  if (s.map_relocalized_after_s) j["map_relocalized_after_s"] = *s.map_relocalized_after_s;
   j["ape_rmse_m"] = s.ape_rmse_m;
   j["ape_pairs"] = s.ape_pairs;
   if (s.has_truth_masks) {

@@ -89,6 +89,9 @@ struct RunSummary {
   // at the last one without a prediction (tracking.restarted): their pose is not vision's; the
   // frames after them are tracked against the map they seeded
   std::size_t bridged = 0;
+  // With RunOptions::load_map: seconds from the first frame to the first one relocalized in the
+  // loaded map (-1: none was); unset without a map to load.
+  std::optional<double> map_relocalized_after_s;
   double ape_rmse_m = -1.0;  // -1 without ground truth
   std::size_t ape_pairs = 0;
   dynamic::RemovalCounts removal;

@@ -42,6 +42,10 @@ TEST(MultiSession, ALaterRunStartingElsewhereRelocalizesInTheSavedMap) {
   const RunSummary second = run_sequence(second_source, opt);
   ASSERT_GT(second.frames, 100u);
   EXPECT_GE(second.tracked + 30, second.frames);  // relocalized within a second (30 frames)
+  ASSERT_TRUE(second.map_relocalized_after_s.has_value());
+  EXPECT_GE(*second.map_relocalized_after_s, 0.0);
+  EXPECT_LE(*second.map_relocalized_after_s, 1.0);
+  EXPECT_FALSE(first.map_relocalized_after_s.has_value());  // no map loaded
   // Where the first run put the same frames: the same world, to a few millimetres.
   std::size_t close = 0, compared = 0;
   for (std::size_t k = 0; k < second.trajectory.size(); ++k) {
