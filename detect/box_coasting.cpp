@@ -1,7 +1,8 @@
 #include "detect/box_coasting.hpp"
 
 #include <algorithm>
-#include <tuple>
+
+#include "core/greedy_pairs.hpp"
 
 namespace kestrel::detect {
 
@@ -24,20 +25,21 @@ std::vector<Detection> BoxCoaster::update(Timestamp t, const std::vector<Detecti
   std::vector<Detection> expected;
   expected.reserve(tracks_.size());
   for (const Track& tr : tracks_) expected.push_back(predicted(tr, t));
-  std::vector<std::tuple<float, std::size_t, std::size_t>> pairs;
+  std::vector<ScoredPair> pairs;
   for (std::size_t d = 0; d < detections.size(); ++d) {
     for (std::size_t k = 0; k < tracks_.size(); ++k) {
       if (tracks_[k].box.label != detections[d].label) continue;
       const float o = iou(detections[d], expected[k]);
-      if (o >= options_.min_iou) pairs.emplace_back(o, d, k);
+      if (o >= options_.min_iou) pairs.push_back({o, d, k});
     }
   }
-  std::sort(pairs.begin(), pairs.end(),
-            [](const auto& a, const auto& b) { return std::get<0>(a) > std::get<0>(b); });
-  std::vector<bool> used(detections.size(), false), seen(tracks_.size(), false);
-  for (const auto& [o, d, k] : pairs) {
-    if (used[d] || seen[k]) continue;
-    used[d] = seen[k] = true;
+  const std::vector<int> track_of =
+      greedy_pairs(std::move(pairs), detections.size(), tracks_.size());
+  std::vector<bool> seen(tracks_.size(), false);
+  for (std::size_t d = 0; d < detections.size(); ++d) {
+    if (track_of[d] < 0) continue;
+    const auto k = static_cast<std::size_t>(track_of[d]);
+    seen[k] = true;
     Track& tr = tracks_[k];
     const Detection& now = detections[d];
     const auto dt = static_cast<float>(to_seconds(t - tr.last_seen));
@@ -66,7 +68,7 @@ std::vector<Detection> BoxCoaster::update(Timestamp t, const std::vector<Detecti
     if (d.width() > 0 && d.height() > 0) out.push_back(std::move(d));
   }
   for (std::size_t d = 0; d < detections.size(); ++d) {
-    if (used[d]) continue;
+    if (track_of[d] >= 0) continue;
     Track tr;
     tr.box = detections[d];
     tr.last_seen = t;

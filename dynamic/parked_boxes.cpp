@@ -1,7 +1,8 @@
 #include "dynamic/parked_boxes.hpp"
 
 #include <algorithm>
-#include <tuple>
+
+#include "core/greedy_pairs.hpp"
 
 namespace kestrel::dynamic {
 namespace {
@@ -25,24 +26,16 @@ void ParkedBoxTracker::assign(Timestamp t, std::vector<BoxRegion>& boxes,
     return to_seconds(t - tr.last_seen) > options_.forget_seconds;
   });
   // Greedy by overlap: the best-overlapping pair first, each box and track used once.
-  std::vector<std::tuple<double, int, int>> pairs;
+  std::vector<ScoredPair> pairs;
   for (std::size_t b = 0; b < boxes.size(); ++b) {
     const bool p = b < parkable.size() && parkable[b];
     for (std::size_t k = 0; k < tracks_.size(); ++k) {
       if (tracks_[k].parkable != p) continue;
       const double o = iou(boxes[b], tracks_[k].box);
-      if (o >= options_.min_iou) pairs.emplace_back(o, static_cast<int>(b), static_cast<int>(k));
+      if (o >= options_.min_iou) pairs.push_back({o, b, k});
     }
   }
-  std::sort(pairs.begin(), pairs.end(),
-            [](const auto& x, const auto& y) { return std::get<0>(x) > std::get<0>(y); });
-  track_of_.assign(boxes.size(), -1);
-  std::vector<bool> taken(tracks_.size(), false);
-  for (const auto& [o, b, k] : pairs) {
-    if (track_of_[static_cast<std::size_t>(b)] >= 0 || taken[static_cast<std::size_t>(k)]) continue;
-    track_of_[static_cast<std::size_t>(b)] = k;
-    taken[static_cast<std::size_t>(k)] = true;
-  }
+  track_of_ = greedy_pairs(std::move(pairs), boxes.size(), tracks_.size());
   for (std::size_t b = 0; b < boxes.size(); ++b) {
     if (track_of_[b] < 0) {
       Track tr;

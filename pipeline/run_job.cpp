@@ -61,18 +61,16 @@ class RunObserver : public Observer {
     std::lock_guard lock(mutex_);
     return objects_;
   }
-  // Seconds from the first reported frame to the first one relocalized; nullopt: none was.
+  // Seconds from the first reported frame to the first one relocalized (the one tracking
+  // thread reports frames in stamp order); nullopt: none was.
   std::optional<double> first_relocalized_after_s() {
     std::lock_guard lock(mutex_);
-    if (rows_.empty()) return std::nullopt;
-    Timestamp first = rows_.front().t;
-    for (const Row& row : rows_) first = std::min(first, row.t);
-    std::optional<Timestamp> at;
     for (const Row& row : rows_) {
-      if (row.state == tracking::TrackingState::kRelocalized && (!at || row.t < *at)) at = row.t;
+      if (row.state == tracking::TrackingState::kRelocalized) {
+        return to_seconds(row.t - rows_.front().t);
+      }
     }
-    if (!at) return std::nullopt;
-    return to_seconds(*at - first);
+    return std::nullopt;
   }
   // Called from the feeding thread for a frame that is not fed (a live run's drop).
   void skip() { advance("dropping"); }
