@@ -2,6 +2,7 @@
 
 #include <ceres/ceres.h>
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <memory>
@@ -191,6 +192,30 @@ class DisparityCost final : public ceres::SizedCostFunction<1, 6, 3> {
   const SE3* T_;
 };
 
+// A point's views from the window's fixed keyframes, condensed: their costs depend on the point
+// alone, so their robust Gauss-Newton model at the stage's start, 1/2 (p - p*)^T H (p - p*),
+// stands in for them as one 3-D residual L^T (p - p*) with H = L L^T.
+class PointPriorCost final : public ceres::SizedCostFunction<3, 3> {
+ public:
+  PointPriorCost(const Mat3& LT, const Vec3& target) : LT_(LT), target_(target) {}
+  bool Evaluate(double const* const* params, double* residuals, double** jacobians) const override {
+    Eigen::Map<Vec3>{residuals} = LT_ * (Eigen::Map<const Vec3>(params[0]) - target_);
+    if (jacobians && jacobians[0]) {
+      Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>{jacobians[0]} = LT_;
+    }
+    return true;
+  }
+
+ private:
+  Mat3 LT_;
+  Vec3 target_;
+};
+
+// Huber's weight rho'(s) at a squared residual s: what a view counts for in Gauss-Newton.
+double huber_weight(double s, double delta) {
+  return s <= delta * delta ? 1.0 : delta / std::sqrt(s);
+}
+
 // A gyro link between two keyframes' poses, whitened by its sigma.
 class RotationLinkCost final : public ceres::SizedCostFunction<3, 6, 6> {
  public:
@@ -308,14 +333,30 @@ LocalBaSolution solve_local_ba(const LocalBaProblem& pb, const PinholeCamera& ca
   std::map<PointId, Vec3> pts = pb.points;
 
   std::vector<std::uint8_t> active(obs.size(), 1);
+  // The passes over every observation (RMS, outliers) take each keyframe's SE(3) from one exp
+  // per keyframe: a revisited place has tens of thousands of views and a few hundred keyframes.
+  std::vector<int> pose_index(obs.size());
+  std::vector<KeyframeId> pose_ids;
+  for (const auto& [k, xi] : poses) pose_ids.push_back(k);
+  for (std::size_t i = 0; i < obs.size(); ++i) {
+    pose_index[i] = static_cast<int>(std::lower_bound(pose_ids.begin(), pose_ids.end(), obs[i].kf) -
+                                     pose_ids.begin());
+  }
+  const auto current_poses = [&]() {
+    std::vector<SE3> T;
+    T.reserve(poses.size());
+    for (const auto& [k, xi] : poses) T.push_back(SE3::exp(xi));
+    return T;
+  };
   auto rms = [&]() {
+    const std::vector<SE3> T = current_poses();
     double s = 0.0;
     int n = 0;
     for (std::size_t i = 0; i < obs.size(); ++i) {
       if (!active[i]) continue;
       Vec2 r;
-      if (reprojection_jacobians(camera, SE3::exp(poses[obs[i].kf]), pts[obs[i].point], obs[i].uv,
-                                 &r, nullptr, nullptr)) {
+      if (reprojection_jacobians(camera, T[static_cast<std::size_t>(pose_index[i])],
+                                 pts[obs[i].point], obs[i].uv, &r, nullptr, nullptr)) {
         s += r.squaredNorm();
         ++n;
       }
@@ -330,8 +371,15 @@ LocalBaSolution solve_local_ba(const LocalBaProblem& pb, const PinholeCamera& ca
   ceres::HuberLoss reprojection_loss(std::sqrt(options.chi2_outlier));
   ceres::HuberLoss disparity_loss(std::sqrt(options.chi2_outlier_depth));
   std::vector<std::unique_ptr<ReprojectionCost>> reprojection_costs(obs.size());
+  // The views from fixed keyframes are condensed per point (LocalBaOptions::condense_fixed_views).
+  const bool condense = options.condense_fixed_views;
+  std::vector<std::uint8_t> from_fixed(obs.size(), 0);
+  if (condense) {
+    for (std::size_t i = 0; i < obs.size(); ++i) from_fixed[i] = pb.fixed.count(obs[i].kf) ? 1 : 0;
+  }
   std::vector<std::unique_ptr<DisparityCost>> disparity_costs(obs.size());
   for (std::size_t i = 0; i < obs.size(); ++i) {
+    if (from_fixed[i]) continue;
     const auto& o = obs[i];
     const SE3* T = pose_cache.of(o.kf);
     reprojection_costs[i] = std::make_unique<ReprojectionCost>(camera, o.uv, o.sqrt_info, T);
@@ -347,8 +395,61 @@ LocalBaSolution solve_local_ba(const LocalBaProblem& pb, const PinholeCamera& ca
     link_costs.push_back(std::make_unique<RotationLinkCost>(l.R_to_from, l.sigma_rad));
   }
 
+  const auto condensed_priors = [&]() {
+    struct Normal {
+      Mat3 H = Mat3::Zero();
+      Vec3 g = Vec3::Zero();
+    };
+    std::map<PointId, Normal> normals;
+    const double delta = std::sqrt(options.chi2_outlier);
+    const double delta_depth = std::sqrt(options.chi2_outlier_depth);
+    for (std::size_t i = 0; i < obs.size(); ++i) {
+      if (!active[i] || !from_fixed[i]) continue;
+      const auto& o = obs[i];
+      const SE3& T = *pose_cache.of(o.kf);
+      const Vec3& p = pts[o.point];
+      Vec2 r = Vec2::Zero();
+      Mat23 J = Mat23::Zero();
+      if (!reprojection_jacobians(camera, T, p, o.uv, &r, nullptr, &J)) continue;
+      Normal& n = normals[o.point];
+      r *= o.sqrt_info;
+      J *= o.sqrt_info;
+      const double w = huber_weight(r.squaredNorm(), delta);
+      n.H += w * J.transpose() * J;
+      n.g += w * J.transpose() * r;
+      if (options.virtual_bf > 0.0 && o.depth > 0.0) {
+        double rd = 0.0;
+        Eigen::Matrix<double, 1, 3> Jd = Eigen::Matrix<double, 1, 3>::Zero();
+        disparity_jacobians(options.virtual_bf, T, p, options.virtual_bf / o.depth, &rd, nullptr,
+                            &Jd);
+        rd *= o.sqrt_info;
+        Jd *= o.sqrt_info;
+        const double wd = huber_weight(rd * rd, delta_depth);
+        n.H += wd * Jd.transpose() * Jd;
+        n.g += wd * Jd.transpose() * rd;
+      }
+    }
+    std::vector<std::pair<PointId, std::unique_ptr<PointPriorCost>>> priors;
+    priors.reserve(normals.size());
+    for (const auto& [pid, n] : normals) {
+      // One view without depth leaves a direction unseen; the tiny ridge keeps the model's
+      // minimum where the view's own ray puts it along that direction.
+      const Mat3 H = n.H + (1e-9 * n.H.trace() + 1e-12) * Mat3::Identity();
+      const Eigen::LLT<Mat3> llt(H);
+      if (llt.info() != Eigen::Success) continue;
+      const Vec3 target = pts[pid] - llt.solve(n.g);
+      if (!target.allFinite()) continue;
+      priors.emplace_back(
+          pid, std::make_unique<PointPriorCost>(Mat3(llt.matrixL()).transpose(), target));
+    }
+    return priors;
+  };
+
   // Two stages as in ORB-SLAM: robust solve, drop outliers, solve again without them.
   for (int stage = 0; stage < 2; ++stage) {
+    const auto priors = condense
+                            ? condensed_priors()
+                            : std::vector<std::pair<PointId, std::unique_ptr<PointPriorCost>>>{};
     ceres::Problem::Options po;
     po.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
     po.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
@@ -356,8 +457,11 @@ LocalBaSolution solve_local_ba(const LocalBaProblem& pb, const PinholeCamera& ca
     po.evaluation_callback = &pose_cache;
     ceres::Problem problem(po);
     Se3LeftManifold manifold;
+    for (const auto& [pid, cost] : priors) {
+      problem.AddResidualBlock(cost.get(), nullptr, pts[pid].data());
+    }
     for (std::size_t i = 0; i < obs.size(); ++i) {
-      if (!active[i]) continue;
+      if (!active[i] || from_fixed[i]) continue;
       const auto& o = obs[i];
       problem.AddResidualBlock(reprojection_costs[i].get(), &reprojection_loss, poses[o.kf].data(),
                                pts[o.point].data());
@@ -387,10 +491,11 @@ LocalBaSolution solve_local_ba(const LocalBaProblem& pb, const PinholeCamera& ca
     so.logging_type = ceres::SILENT;
     ceres::Solver::Summary summary;
     ceres::Solve(so, &problem, &summary);
+    const std::vector<SE3> solved = current_poses();
     for (std::size_t i = 0; i < obs.size(); ++i) {
       if (!active[i]) continue;
       const auto& o = obs[i];
-      const SE3 T = SE3::exp(poses[o.kf]);
+      const SE3& T = solved[static_cast<std::size_t>(pose_index[i])];
       Vec2 r;
       const bool front =
           reprojection_jacobians(camera, T, pts[o.point], o.uv, &r, nullptr, nullptr);

@@ -40,6 +40,10 @@ struct LocalBaOptions {
   // solve_local_ba leaves them out).
   bool inertial = false;
   double inertial_max_dt_s = 3.0;  // longer pre-integrations are left out
+  // A point's views from fixed keyframes depend on the point alone: each stage replaces them by
+  // their robust Gauss-Newton model at its start, one 3-D residual per point. The solve then
+  // costs what the window's own views cost, however often the place was seen before.
+  bool condense_fixed_views = true;
 };
 
 struct LocalBaResult {
