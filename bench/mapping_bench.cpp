@@ -13,16 +13,6 @@
 namespace kestrel::mapping {
 namespace {
 
-PinholeCamera bench_camera() {
-  PinholeCamera c;
-  c.fx = c.fy = 525.0;
-  c.cx = 319.5;
-  c.cy = 239.5;
-  c.width = 640;
-  c.height = 480;
-  return c;
-}
-
 Map revisited_place(const PinholeCamera& cam, int keyframes) {
   std::mt19937 rng(3);
   std::normal_distribution<double> n01(0.0, 1.0);
@@ -69,7 +59,7 @@ Map revisited_place(const PinholeCamera& cam, int keyframes) {
 }
 
 void BM_LocalBaRevisitedPlace(benchmark::State& state) {
-  const PinholeCamera cam = bench_camera();
+  const PinholeCamera cam;  // 640x480, f 525: the simulator's camera
   const int earlier = static_cast<int>(state.range(0));
   const Map map = revisited_place(cam, earlier + 11);
   LocalBaOptions options;

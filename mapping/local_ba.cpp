@@ -447,9 +447,8 @@ LocalBaSolution solve_local_ba(const LocalBaProblem& pb, const PinholeCamera& ca
 
   // Two stages as in ORB-SLAM: robust solve, drop outliers, solve again without them.
   for (int stage = 0; stage < 2; ++stage) {
-    const auto priors = condense
-                            ? condensed_priors()
-                            : std::vector<std::pair<PointId, std::unique_ptr<PointPriorCost>>>{};
+    decltype(condensed_priors()) priors;
+    if (condense) priors = condensed_priors();
     ceres::Problem::Options po;
     po.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
     po.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
