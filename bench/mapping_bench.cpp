@@ -1,8 +1,11 @@
-// Local bundle adjustment on a place seen again and again (mapping/local_ba.hpp): 700 points,
-// the window's 11 keyframes and as many earlier ones as the argument, each seeing a point with
-// probability one half, so a point's views from fixed keyframes grow with the revisits as on a
-// long run of market. Condensed: those views enter as one model per point
-// (LocalBaOptions::condense_fixed_views).
+// The mapping stages that grow with a place seen again and again: 700 points, the window's 11
+// keyframes and as many earlier ones as the argument, each seeing a point with probability one
+// half, so a point's views grow with the revisits as on a long run of market.
+//  * Local bundle adjustment (mapping/local_ba.hpp); condensed: the fixed keyframes' views
+//    enter as one model per point (LocalBaOptions::condense_fixed_views).
+//  * What the tracking thread does with each keyframe on such a place: the keyframe-culling
+//    test of each keyframe connected to the newest (Map::is_redundant, as Tracker's culling asks
+//    it, nothing erased), and local BA's gather.
 #include <benchmark/benchmark.h>
 
 #include <random>
@@ -76,6 +79,51 @@ void BM_LocalBaRevisitedPlace(benchmark::State& state) {
 BENCHMARK(BM_LocalBaRevisitedPlace)
     ->ArgNames({"earlier", "condensed"})
     ->ArgsProduct({{10, 40, 100}, {0, 1}})
+    ->Unit(benchmark::kMillisecond);
+
+void BM_KeyframeCullingTest(benchmark::State& state) {
+  const PinholeCamera cam;
+  const int earlier = static_cast<int>(state.range(0));
+  const Map map = revisited_place(cam, earlier + 11);
+  const KeyframeId newest = earlier + 10;
+  std::vector<KeyframeId> candidates;
+  for (const auto& [id, w] : map.keyframe(newest)->connections) {
+    (void)w;
+    candidates.push_back(id);
+  }
+  int redundant = 0;
+  for (auto _ : state) {
+    redundant = 0;
+    for (KeyframeId id : candidates) redundant += map.is_redundant(id, 40.0, 3, 0.9) ? 1 : 0;
+    benchmark::DoNotOptimize(redundant);
+  }
+  state.counters["candidates"] = static_cast<double>(candidates.size());
+  state.counters["redundant"] = redundant;
+}
+BENCHMARK(BM_KeyframeCullingTest)
+    ->ArgName("earlier")
+    ->Arg(40)
+    ->Arg(100)
+    ->Arg(300)
+    ->Unit(benchmark::kMillisecond);
+
+void BM_LocalBaGather(benchmark::State& state) {
+  const PinholeCamera cam;
+  const int earlier = static_cast<int>(state.range(0));
+  const Map map = revisited_place(cam, earlier + 11);
+  std::size_t observations = 0;
+  for (auto _ : state) {
+    const auto pb = gather_local_ba(map, earlier + 10, LocalBaOptions{});
+    observations = pb ? pb->observations.size() : 0;
+    benchmark::DoNotOptimize(observations);
+  }
+  state.counters["observations"] = static_cast<double>(observations);
+}
+BENCHMARK(BM_LocalBaGather)
+    ->ArgName("earlier")
+    ->Arg(40)
+    ->Arg(100)
+    ->Arg(300)
     ->Unit(benchmark::kMillisecond);
 
 }  // namespace

@@ -25,9 +25,46 @@ int Map::tracked_points(KeyframeId kid, int min_observations) const {
   return n;
 }
 
+Map::Map(const Map& other)
+    : keyframes_(other.keyframes_),
+      points_(other.points_),
+      recent_points_(other.recent_points_),
+      next_keyframe_(other.next_keyframe_),
+      next_point_(other.next_point_) {
+  reindex_keyframes();
+}
+
+Map& Map::operator=(const Map& other) {
+  if (this != &other) {
+    keyframes_ = other.keyframes_;
+    points_ = other.points_;
+    recent_points_ = other.recent_points_;
+    next_keyframe_ = other.next_keyframe_;
+    next_point_ = other.next_point_;
+    reindex_keyframes();
+  }
+  return *this;
+}
+
+void Map::index_keyframe(KeyframeId id, Keyframe* kf) {
+  if (id < 0) return;
+  const auto at = static_cast<std::size_t>(id);
+  if (at >= keyframe_at_.size()) {
+    if (!kf || at > 16 * (keyframes_.size() + 64)) return;
+    keyframe_at_.resize(at + 1, nullptr);
+  }
+  keyframe_at_[at] = kf;
+}
+
+void Map::reindex_keyframes() {
+  keyframe_at_.clear();
+  for (auto& [id, kf] : keyframes_) index_keyframe(id, &kf);
+}
+
 void Map::restore(std::map<KeyframeId, Keyframe> keyframes,
                   std::unordered_map<PointId, MapPoint> points) {
   keyframes_ = std::move(keyframes);
+  reindex_keyframes();
   points_ = std::move(points);
   recent_points_.clear();
   next_keyframe_ = keyframes_.empty() ? 0 : keyframes_.rbegin()->first + 1;
@@ -38,6 +75,7 @@ void Map::restore(std::map<KeyframeId, Keyframe> keyframes,
 KeyframeId Map::add_keyframe(Timestamp t, const SE3& T_w_c, FrameFeatures features) {
   const KeyframeId id = next_keyframe_++;
   Keyframe& kf = keyframes_[id];
+  index_keyframe(id, &kf);
   kf.id = id;
   kf.t = t;
   kf.T_w_c = T_w_c;
@@ -338,6 +376,7 @@ void Map::erase_keyframe(KeyframeId kid) {
   }
   const std::vector<PointId> seen = it->second.point_of_feature;
   const std::optional<GyroLink> through = it->second.gyro;
+  index_keyframe(kid, nullptr);
   keyframes_.erase(it);
   for (auto& [id, kf] : keyframes_) {
     (void)id;
@@ -386,14 +425,18 @@ std::vector<KeyframeId> Map::covisible(KeyframeId kid, int n) const {
   return out;
 }
 
+const Keyframe* Map::find_keyframe(KeyframeId id) const {
+  if (id >= 0 && static_cast<std::size_t>(id) < keyframe_at_.size()) {
+    if (const Keyframe* kf = keyframe_at_[static_cast<std::size_t>(id)]) return kf;
+  }
+  auto it = keyframes_.find(id);
+  return it == keyframes_.end() ? nullptr : &it->second;
+}
 Keyframe* Map::keyframe(KeyframeId id) {
-  auto it = keyframes_.find(id);
-  return it == keyframes_.end() ? nullptr : &it->second;
+  // The non-const Map owns the keyframe: dropping the const find_keyframe added is safe.
+  return const_cast<Keyframe*>(find_keyframe(id));
 }
-const Keyframe* Map::keyframe(KeyframeId id) const {
-  auto it = keyframes_.find(id);
-  return it == keyframes_.end() ? nullptr : &it->second;
-}
+const Keyframe* Map::keyframe(KeyframeId id) const { return find_keyframe(id); }
 MapPoint* Map::point(PointId id) {
   if (id == kNoPoint) return nullptr;
   auto it = points_.find(id);

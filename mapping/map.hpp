@@ -81,6 +81,13 @@ struct CullingOptions {
 
 class Map {
  public:
+  Map() = default;
+  // A copy indexes its own keyframes (keyframe_at_ holds addresses into keyframes_).
+  Map(const Map& other);
+  Map& operator=(const Map& other);
+  Map(Map&&) noexcept = default;  // a moved std::map keeps its nodes where they are
+  Map& operator=(Map&&) noexcept = default;
+
   KeyframeId add_keyframe(Timestamp t, const SE3& T_w_c, FrameFeatures features);
   // A point seen by `feature` of keyframe `kf`.
   PointId add_point(const Vec3& p_w, KeyframeId kf, int feature);
@@ -146,7 +153,17 @@ class Map {
   const MapPoint* close_point(const Keyframe& kf, std::size_t i, double max_depth) const;
   bool seen_by_others(const MapPoint& p, KeyframeId kid, int level, int observers) const;
 
+  // keyframe_at_[id]: keyframe id's node in keyframes_ (a std::map's nodes stay put), nullptr
+  // where none or not indexed. Every view a revisited place's point holds is looked up by id:
+  // keyframe culling walks them, and a tree's descent per view was most of its cost. Ids are
+  // dense as the map hands them out; a loaded map's ids may be sparse, and one far beyond the
+  // keyframe count is left to the tree.
+  void index_keyframe(KeyframeId id, Keyframe* kf);
+  void reindex_keyframes();
+  const Keyframe* find_keyframe(KeyframeId id) const;
+
   std::map<KeyframeId, Keyframe> keyframes_;
+  std::vector<Keyframe*> keyframe_at_;
   std::unordered_map<PointId, MapPoint> points_;
   std::vector<PointId> recent_points_;  // candidates for culling
   KeyframeId next_keyframe_ = 0;

@@ -264,5 +264,52 @@ TEST(Map, CovisibilityWithSparseKeyframeIds) {
   EXPECT_EQ(loaded.keyframe(k0)->connections.at(kFar), 40);
 }
 
+// Keyframes are found by id through an index into the map's own storage: a copy must find its
+// own keyframes (not the original's), a moved map the same ones, and an erased or far-off id
+// none or the right one.
+TEST(Map, CopiesAndMovesFindTheirOwnKeyframes) {
+  Map map;
+  for (int k = 0; k < 5; ++k) map.add_keyframe(k, SE3(), grid_features(20, 2.0));
+  map.erase_keyframe(2);
+  Map copy = map;
+  for (KeyframeId k : {0, 1, 3, 4}) {
+    ASSERT_NE(copy.keyframe(k), nullptr);
+    EXPECT_NE(copy.keyframe(k), map.keyframe(k));
+    EXPECT_EQ(copy.keyframe(k)->id, k);
+  }
+  EXPECT_EQ(copy.keyframe(2), nullptr);
+  EXPECT_EQ(copy.keyframe(5), nullptr);
+  EXPECT_EQ(copy.keyframe(-1), nullptr);
+  copy.keyframe(3)->t = 42;
+  EXPECT_EQ(map.keyframe(3)->t, 3);
+
+  Map assigned;
+  assigned.add_keyframe(0, SE3(), grid_features(5, 1.0));
+  assigned = copy;
+  EXPECT_EQ(assigned.keyframe(3)->t, 42);
+  EXPECT_NE(assigned.keyframe(3), copy.keyframe(3));
+
+  const Keyframe* before = copy.keyframe(4);
+  Map moved = std::move(copy);
+  EXPECT_EQ(moved.keyframe(4), before);
+  const KeyframeId next = moved.add_keyframe(9, SE3(), grid_features(5, 1.0));
+  EXPECT_EQ(next, 5);
+  EXPECT_EQ(moved.keyframe(next)->t, 9);
+
+  // Restored with ids far beyond the keyframe count: found all the same.
+  std::map<KeyframeId, Keyframe> keyframes;
+  constexpr KeyframeId kFar = 1'000'000'000'000;
+  keyframes[kFar].id = kFar;
+  keyframes[7].id = 7;
+  Map loaded;
+  loaded.restore(std::move(keyframes), {});
+  ASSERT_NE(loaded.keyframe(kFar), nullptr);
+  EXPECT_EQ(loaded.keyframe(kFar)->id, kFar);
+  EXPECT_EQ(loaded.keyframe(7)->id, 7);
+  EXPECT_EQ(loaded.keyframe(8), nullptr);
+  EXPECT_EQ(loaded.add_keyframe(1, SE3(), grid_features(5, 1.0)), kFar + 1);
+  EXPECT_NE(loaded.keyframe(kFar + 1), nullptr);
+}
+
 }  // namespace
 }  // namespace kestrel::mapping
