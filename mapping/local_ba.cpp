@@ -267,6 +267,11 @@ std::optional<LocalBaProblem> gather_local_ba(const Map& map, KeyframeId current
     }
     return it->second;
   };
+  // Sized once: on a place revisited for minutes the views number a hundred thousand, and
+  // growing the array by doubling copied them over and over.
+  std::size_t views = 0;
+  for (PointId pid : points) views += map.point(pid)->observations.size();
+  pb.observations.reserve(views);
   for (PointId pid : points) {
     const auto* mp = map.point(pid);
     pb.points.emplace_hint(pb.points.end(), pid, mp->p_w);
