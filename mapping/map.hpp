@@ -155,7 +155,8 @@ class Map {
 
   // keyframe_at_[id]: keyframe id's node in keyframes_ (a std::map's nodes stay put), nullptr
   // where none or not indexed. Every view a revisited place's point holds is looked up by id:
-  // keyframe culling walks them, and a tree's descent per view was most of its cost. Ids are
+  // keyframe culling walks them, and a tree's descent per view was half of its cost
+  // (bench_mapping's culling test). Ids are
   // dense as the map hands them out; a loaded map's ids may be sparse, and one far beyond the
   // keyframe count is left to the tree.
   void index_keyframe(KeyframeId id, Keyframe* kf);
