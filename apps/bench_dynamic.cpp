@@ -122,9 +122,7 @@ nlohmann::json bench_dynamic(const AreaOptions& o) {
       "unknown mover | dynamic features | static features | filter ms p50 | filter CPU ms p50 "
       "|\n"
       "|---|---|---|---|---|---|---|---|---|---|\n");
-  detect::YoloFastestOptions pipeline_yolo;
-  pipeline_yolo.model = detect::kPipelineYoloModel;
-  detect::YoloFastest yolo(detect::find_models_dir(), pipeline_yolo);
+  detect::YoloFastest yolo(detect::find_models_dir(), detect::pipeline_yolo_options());
   detect::YoloFastestOptions seed_yolo;
   seed_yolo.model = detect::YoloModel::kV11;
   detect::YoloFastest yolo_v11(detect::find_models_dir(), seed_yolo);

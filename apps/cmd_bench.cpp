@@ -278,9 +278,9 @@ void run_bench(const BenchFlags& flags) {
     v11.model = kestrel::detect::YoloModel::kV11;
     kestrel::detect::YoloFastest yolo(kestrel::detect::find_models_dir(), v11);
     detector_ms["yolo-fastest"] = time_detector(yolo, rendered.front().dir, det_frames);
-    kestrel::detect::YoloFastestOptions xl;
-    xl.model = kestrel::detect::YoloModel::kV11Xl;
-    kestrel::detect::YoloFastest yolo_xl(kestrel::detect::find_models_dir(), xl);
+    kestrel::detect::YoloFastest yolo_xl(
+        kestrel::detect::find_models_dir(),
+        kestrel::detect::pipeline_yolo_options(kestrel::detect::YoloModel::kV11Xl));
     detector_ms["yolo-fastest-xl"] = time_detector(yolo_xl, rendered.front().dir, det_frames);
     kestrel::detect::OracleDetector oracle(
         kestrel::io::read_boxes(rendered.front().dir + "/boxes.csv"));

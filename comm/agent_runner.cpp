@@ -104,10 +104,9 @@ GridState to_state(const maps::OccupancyGrid& g, std::uint32_t seq) {
 
 std::unique_ptr<detect::Detector> make_detector(const AgentRunOptions& o) {
   if (o.detector == "yolo") {
-    detect::YoloFastestOptions yo;
-    yo.model = o.yolo_model;
     return std::make_unique<detect::YoloFastest>(
-        o.models_dir.empty() ? detect::find_models_dir() : o.models_dir, yo);
+        o.models_dir.empty() ? detect::find_models_dir() : o.models_dir,
+        detect::pipeline_yolo_options(o.yolo_model));
   }
   if (o.detector == "oracle") {
     if (o.dataset_dir.empty()) throw Error("--detector oracle needs a sim: or kestrel: source");

@@ -36,4 +36,17 @@ bool is_dynamic_class(std::string_view label) {
   return kList.is_dynamic_class(label);
 }
 
+DetectionRoles split_by_role(const std::vector<Detection>& boxes, const DynamicClassList& dynamic,
+                             float mover_min_score) {
+  DetectionRoles out;
+  for (const Detection& d : boxes) {
+    if (!dynamic.is_dynamic_class(d.label)) {
+      out.objects.push_back(d);
+    } else if (d.score >= mover_min_score) {
+      out.movers.push_back(d);
+    }
+  }
+  return out;
+}
+
 }  // namespace kestrel::detect

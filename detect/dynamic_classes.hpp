@@ -5,7 +5,15 @@
 #include <string_view>
 #include <vector>
 
+#include "detect/detection.hpp"
+
 namespace kestrel::detect {
+
+// The class score a dynamic-class box needs to count as a mover's (YOLO's usual 0.25). The
+// pipeline's detector reports boxes from kPipelineYoloMinScore up (yolo_fastest.hpp), for the
+// object database; a weaker mover box would cost the filter scenery it cannot spare: over nine
+// 60 s draws a 0.10 threshold for every class made APE worse on six (yolo_fastest.hpp).
+inline constexpr float kMoverMinScore = 0.25f;
 
 // person, bicycle, car, motorcycle, bus, truck, dog, cat, horse, bird, sheep, cow.
 const std::vector<std::string>& default_dynamic_classes();
@@ -31,5 +39,14 @@ class DynamicClassList {
 
 // Against the default list.
 bool is_dynamic_class(std::string_view label);
+
+// A frame's boxes by role: movers (dynamic classes scoring at least mover_min_score) for the
+// dynamic filter, objects (every other class, at the detector's own threshold) for the object
+// database. A dynamic-class box below mover_min_score is neither.
+struct DetectionRoles {
+  std::vector<Detection> movers, objects;
+};
+DetectionRoles split_by_role(const std::vector<Detection>& boxes, const DynamicClassList& dynamic,
+                             float mover_min_score);
 
 }  // namespace kestrel::detect

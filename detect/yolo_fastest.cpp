@@ -84,6 +84,13 @@ YoloModelFiles yolo_model_files(const std::string& models_dir, YoloModel model) 
   return f;
 }
 
+YoloFastestOptions pipeline_yolo_options(YoloModel model) {
+  YoloFastestOptions o;
+  o.model = model;
+  o.conf_threshold = kPipelineYoloMinScore;
+  return o;
+}
+
 std::string find_models_dir() {
   fs::path shared;
   if (const char* env = std::getenv("KESTREL_SHARED"); env && *env) {

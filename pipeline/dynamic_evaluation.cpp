@@ -172,10 +172,10 @@ DynamicEvalResult evaluate_dynamic_filter(const DynamicEvalScene& scene,
         throw Error("evaluate_dynamic_filter: detector index " + std::to_string(options.detector) +
                     " out of range (" + std::to_string(f.detections.size()) + " loaded)");
       }
-      std::vector<detect::Detection> dets;
-      for (const auto& d : f.detections[static_cast<std::size_t>(options.detector)].boxes) {
-        if (classes.is_dynamic_class(d.label)) dets.push_back(d);
-      }
+      std::vector<detect::Detection> dets =
+          detect::split_by_role(f.detections[static_cast<std::size_t>(options.detector)].boxes,
+                                classes, options.mover_min_score)
+              .movers;
       for (auto& d : coaster.update(f.t, dets, f.gray.width, f.gray.height)) {
         dets.push_back(std::move(d));
       }

@@ -17,6 +17,7 @@
 #include "detect/box_coasting.hpp"
 #include "detect/detection.hpp"
 #include "detect/detector.hpp"
+#include "detect/dynamic_classes.hpp"
 #include "dynamic/dynamic_filter.hpp"
 #include "dynamic/parked_boxes.hpp"
 #include "dynamic/removal_metrics.hpp"
@@ -60,6 +61,7 @@ struct DynamicEvalOptions {
   dynamic::DynamicFilterOptions filter;
   int detector = -1;                         // index into the frames' detections; -1: no boxes
   std::vector<std::string> dynamic_classes;  // empty: detect::default_dynamic_classes()
+  float mover_min_score = detect::kMoverMinScore;  // as SystemOptions::mover_min_score
   // Parked vehicles judged as scenery, as the System does (SystemOptions::park_vehicles).
   bool park_vehicles = true;
   std::vector<std::string> parkable_classes;  // empty: detect::default_parkable_classes()

@@ -750,13 +750,10 @@ struct System::Impl {
                            : detections.wait_and_match(frame.t, std::chrono::milliseconds(30));
       stats.record("detection_wait", ms_since(t0));
       if (set) {
-        for (const auto& d : set->boxes) {
-          if (dynamic_classes.is_dynamic_class(d.label)) {
-            dynamic_dets.push_back(d);
-          } else {
-            static_dets.push_back(d);
-          }
-        }
+        detect::DetectionRoles roles =
+            detect::split_by_role(set->boxes, dynamic_classes, options.mover_min_score);
+        dynamic_dets = std::move(roles.movers);
+        static_dets = std::move(roles.objects);
       }
       // Movers whose detection this frame misses (or that no detection matched) keep a box.
       std::vector<detect::Detection> carried =

@@ -21,6 +21,7 @@
 #include "core/trajectory.hpp"
 #include "detect/box_coasting.hpp"
 #include "detect/detector.hpp"
+#include "detect/dynamic_classes.hpp"
 #include "dynamic/dynamic_filter.hpp"
 #include "dynamic/parked_boxes.hpp"
 #include "dynamic/removal_metrics.hpp"
@@ -42,6 +43,7 @@ struct SystemOptions {
   std::size_t frame_queue = 8;
   std::size_t detection_queue = 2;
   std::vector<std::string> dynamic_classes;  // empty: detect/dynamic_classes defaults
+  float mover_min_score = detect::kMoverMinScore;  // weaker dynamic-class boxes are dropped
   // Vehicles seen still long enough are parked (dynamic/parked_boxes.hpp): judged by geometry
   // alone, mapped and given to the object database like any static object. Off: every
   // dynamic-class box is a mover's.

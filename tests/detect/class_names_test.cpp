@@ -68,5 +68,30 @@ TEST(DynamicClasses, DefaultListAndAliases) {
   EXPECT_EQ(custom.labels().size(), 2u);
 }
 
+TEST(DynamicClasses, SplitByRoleKeepsWeakObjectsAndDropsWeakMovers) {
+  const auto box = [](const char* label, float score) {
+    Detection d;
+    d.label = label;
+    d.score = score;
+    d.x_max = d.y_max = 10.0f;
+    return d;
+  };
+  const std::vector<Detection> boxes = {box("person", 0.9f), box("person", 0.2f),
+                                        box("chair", 0.16f), box("car", 0.25f),
+                                        box("dining table", 0.6f)};
+  const DetectionRoles r = split_by_role(boxes, DynamicClassList(), kMoverMinScore);
+  ASSERT_EQ(r.movers.size(), 2u);
+  EXPECT_EQ(r.movers[0].label, "person");
+  EXPECT_FLOAT_EQ(r.movers[0].score, 0.9f);
+  EXPECT_EQ(r.movers[1].label, "car");  // at the threshold counts
+  ASSERT_EQ(r.objects.size(), 2u);
+  EXPECT_EQ(r.objects[0].label, "chair");
+  EXPECT_EQ(r.objects[1].label, "dining table");
+  // A custom list moves the chair to the movers, where its score is too weak.
+  const DetectionRoles c = split_by_role(boxes, DynamicClassList({"chair"}), kMoverMinScore);
+  EXPECT_TRUE(c.movers.empty());
+  EXPECT_EQ(c.objects.size(), 4u);
+}
+
 }  // namespace
 }  // namespace kestrel::detect
