@@ -172,8 +172,8 @@ RunSummary run_sequence(io::MeasurementSource& source, const RunOptions& options
   if (options.detector == "yolo") {
     const std::string dir =
         options.models_dir.empty() ? detect::find_models_dir() : options.models_dir;
-    detector =
-        std::make_unique<detect::YoloFastest>(dir, detect::pipeline_yolo_options(options.yolo_model));
+    detector = std::make_unique<detect::YoloFastest>(
+        dir, detect::pipeline_yolo_options(options.yolo_model));
   } else if (options.detector == "oracle") {
     if (options.dataset_dir.empty()) {
       throw Error("--detector oracle needs a Kestrel sequence with boxes.csv");

@@ -42,7 +42,7 @@ struct SystemOptions {
   Timestamp detection_tolerance_ns = 50'000'000;  // boxes match a frame within 50 ms
   std::size_t frame_queue = 8;
   std::size_t detection_queue = 2;
-  std::vector<std::string> dynamic_classes;  // empty: detect/dynamic_classes defaults
+  std::vector<std::string> dynamic_classes;        // empty: detect/dynamic_classes defaults
   float mover_min_score = detect::kMoverMinScore;  // weaker dynamic-class boxes are dropped
   // Vehicles seen still long enough are parked (dynamic/parked_boxes.hpp): judged by geometry
   // alone, mapped and given to the object database like any static object. Off: every
