@@ -228,6 +228,10 @@ void print_summary(const char* name, const RunSummary& s) {
     std::printf("  resident memory %.0f MiB at the end (peak %.0f MiB)\n", s.memory.back().rss_mib,
                 kestrel::pipeline::peak_rss_mib(s.memory));
   }
+  if (s.outputs_write_s >= 0) {
+    std::printf("  outputs written in %.2f s (%zu files, %.1f MiB)\n", s.outputs_write_s,
+                s.outputs_files, static_cast<double>(s.outputs_bytes) / (1024.0 * 1024.0));
+  }
 }
 
 void setup_run(CLI::App& app) {

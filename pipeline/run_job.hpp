@@ -1,6 +1,7 @@
 #pragma once
 // One run of the system over a dataset, as `kestrel run`, `kestrel demo` and `kestrel bench`
 // do it: feed the stream, write the outputs, score against ground truth where there is one.
+#include <cstdint>
 #include <functional>
 #include <map>
 #include <optional>
@@ -102,6 +103,12 @@ struct RunSummary {
   double tracking_ms_median = 0.0;  // per frame: features + dynamic filter + tracking
   double detector_ms_median = 0.0;
   double wall_seconds = 0.0;
+  // With RunOptions::out_dir: seconds to write the run's files there (trajectory, frames.csv,
+  // map.bin, sparse and dense clouds, OctoMap, 2D grid, objects, timing, summary), how many
+  // files the folder then holds and their bytes; -1 without out_dir.
+  double outputs_write_s = -1.0;
+  std::size_t outputs_files = 0;
+  std::uintmax_t outputs_bytes = 0;
   std::string timing_json;
   // For the report and the benchmark: the estimate, the reference, every stage's latency.
   Trajectory trajectory;

@@ -1,5 +1,6 @@
 // frames.csv, the per-frame record of a run: one row per reported frame, every column the header
-// names, and the local map's size and points in view beside the inliers they bound.
+// names, and the local map's size and points in view beside the inliers they bound; the time the
+// run's files took to write, and their count and bytes, in the summary.
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -7,6 +8,8 @@
 #include <sstream>
 #include <string>
 #include <vector>
+
+#include <nlohmann/json.hpp>
 
 #include "pipeline/run_job.hpp"
 #include "sim/live_source.hpp"
@@ -62,6 +65,22 @@ TEST(FramesCsv, EveryTrackedRowHasItsLocalMapAndThePointsInView) {
   }
   EXPECT_EQ(rows, s.frames);
   EXPECT_GE(tracked, s.frames - 2);
+
+  // The write itself is timed and the folder's files counted (summary.json among them).
+  std::size_t files = 0;
+  std::uintmax_t bytes = 0;
+  for (const auto& e : std::filesystem::directory_iterator(opt.out_dir)) {
+    ++files;
+    if (e.path().filename() != "summary.json") bytes += e.file_size();
+  }
+  EXPECT_GT(s.outputs_write_s, 0.0);
+  EXPECT_EQ(s.outputs_files, files - 1);  // counted before summary.json was written
+  EXPECT_EQ(s.outputs_bytes, bytes);
+  for (const char* f : {"trajectory.txt", "map.bin", "cloud.ply", "map.pgm", "objects.json"})
+    EXPECT_TRUE(std::filesystem::exists(opt.out_dir + "/" + f)) << f;
+  const auto j = nlohmann::json::parse(std::ifstream(opt.out_dir + "/summary.json"));
+  EXPECT_DOUBLE_EQ(j["outputs_write_s"].get<double>(), s.outputs_write_s);
+  EXPECT_EQ(j["outputs_files"].get<std::size_t>(), s.outputs_files);
   std::filesystem::remove_all(opt.out_dir);
 }
 
