@@ -278,7 +278,7 @@ AgentRunSummary run_agent(io::MeasurementSource& source, const AgentRunOptions& 
   }
   telemetry.publish_status();
 
-  maps::MapBuilder builder;
+  maps::MapBuilder builder(maps::map_builder_options(calib.depth_max));
   std::deque<RgbdFrame> recent;  // depth of the last frames, for the keyframes tracked from them
   GridState published;
   std::uint32_t grid_seq = 0;

@@ -17,6 +17,10 @@ struct Calibration {
   bool has_imu = false;
   ImuNoise imu;
   double depth_scale = 5000.0;  // raw depth units per metre (TUM: 5000)
+  // The depth sensor's range in metres (farther reads as a hole) where the calibration says it
+  // (a kestrel sim sequence's calib.yaml does): the maps trust readings that far. Unset: the
+  // maps' defaults (a D455-like sensor to 8 m).
+  std::optional<double> depth_max;
   double fps = 30.0;
 
   bool is_stereo() const { return right.has_value(); }

@@ -162,6 +162,7 @@ Config parse_kestrel(const Reader& rd, const YAML::Node& root) {
     cal.imu = kestrel_imu(rd, root["imu"]);
   }
   if (root["depth_scale"]) cal.depth_scale = rd.positive(root["depth_scale"], "depth_scale");
+  if (root["depth_max"]) cal.depth_max = rd.positive(root["depth_max"], "depth_max");
   if (root["fps"]) cal.fps = rd.positive(root["fps"], "fps");
   return cfg;
 }
@@ -397,6 +398,7 @@ std::string to_yaml(const Calibration& c) {
     out << YAML::EndMap;
   }
   out << YAML::Key << "depth_scale" << YAML::Value << c.depth_scale;
+  if (c.depth_max) out << YAML::Key << "depth_max" << YAML::Value << *c.depth_max;
   out << YAML::Key << "fps" << YAML::Value << c.fps;
   out << YAML::EndMap;
   return std::string(out.c_str()) + "\n";

@@ -117,6 +117,15 @@ const std::vector<Vec3>& MapBuilder::rays_for(const PinholeCamera& camera) {
   return rays_;
 }
 
+MapBuilderOptions map_builder_options(std::optional<double> depth_max) {
+  MapBuilderOptions o;
+  if (depth_max && *depth_max > 1.0) {
+    o.max_depth = *depth_max - 1.0;
+    o.octree.max_range = *depth_max;
+  }
+  return o;
+}
+
 std::size_t MapBuilder::insert(const MapKeyframe& kf) {
   if (!kf.depth || kf.depth->empty() || kf.depth->type != PixelType::kU16 ||
       kf.depth->channels != 1 || kf.depth->width != kf.camera.width ||

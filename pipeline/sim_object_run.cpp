@@ -8,6 +8,8 @@
 
 #include "eval/object_metrics.hpp"
 #include "eval/occupancy_metrics.hpp"
+#include "nav/astar_planner.hpp"
+#include "nav/inflation.hpp"
 #include "sim/simulator.hpp"
 
 namespace kestrel::pipeline {
@@ -43,6 +45,85 @@ eval::ObjectBox box_of(const std::string& label, const Vec3& center, const Vec3&
   return {label, center, size, yaw, observations};
 }
 
+// Free regions of a grid: a label per cell (-1 blocked or unknown), 4-connected, which for A*'s
+// 8 neighbours without corner cutting are the same regions.
+std::vector<int> free_regions(const maps::OccupancyGrid& g, int occupied_percent) {
+  std::vector<int> label(g.cells().size(), -1);
+  const auto open = [&](const maps::GridCell& c) {
+    return g.contains(c) && g.at(c) >= 0 && g.at(c) < occupied_percent && label[g.index(c)] < 0;
+  };
+  int next = 0;
+  std::vector<maps::GridCell> stack;
+  for (int y = 0; y < g.height(); ++y)
+    for (int x = 0; x < g.width(); ++x) {
+      if (!open({x, y})) continue;
+      label[g.index({x, y})] = next;
+      stack.push_back({x, y});
+      while (!stack.empty()) {
+        const maps::GridCell c = stack.back();
+        stack.pop_back();
+        for (const maps::GridCell nb : {maps::GridCell{c.x + 1, c.y}, maps::GridCell{c.x - 1, c.y},
+                                        maps::GridCell{c.x, c.y + 1}, maps::GridCell{c.x, c.y - 1}})
+          if (open(nb)) {
+            label[g.index(nb)] = next;
+            stack.push_back(nb);
+          }
+      }
+      ++next;
+    }
+  return label;
+}
+
+// Issue 6's planning check on the built grid: a path between two places the camera passed that
+// lie in one free region the robot fits in (a drone's grid is a patchwork of what it looked at,
+// and a handheld camera's of what it faced), clear of the world's static geometry; and no path
+// into any object.
+void plan_on_grid(const maps::OccupancyGrid& g, const eval::CellMask& truth_cells,
+                  const std::vector<Vec2>& places,
+                  const std::vector<const sim::StaticObject*>& objects, double radius,
+                  SimObjectScores& s) {
+  nav::PlannerOptions po;
+  po.robot_radius = radius;
+  const maps::OccupancyGrid inflated = nav::inflate(g, radius);
+  const std::vector<int> region = free_regions(inflated, po.occupied_percent);
+  std::map<int, std::vector<Vec2>> by_region;
+  for (const Vec2& p : places)
+    if (const auto c = inflated.cell_of(p); c && region[inflated.index(*c)] >= 0)
+      by_region[region[inflated.index(*c)]].push_back(p);
+  std::vector<Vec2> free;
+  for (const auto& [id, ps] : by_region)
+    if (ps.size() > free.size()) free = ps;
+  double best = -1.0;
+  Vec2 from = Vec2::Zero(), to = Vec2::Zero();
+  for (std::size_t i = 0; i < free.size(); ++i)
+    for (std::size_t j = i + 1; j < free.size(); ++j)
+      if ((free[i] - free[j]).norm() > best) {
+        best = (free[i] - free[j]).norm();
+        from = free[i];
+        to = free[j];
+      }
+  if (best < 0) {
+    s.path_message = "no keyframe place is free in the inflated grid";
+    return;
+  }
+  const nav::PlanResult r = nav::plan_path(g, from, to, po);
+  s.path_found = r.ok();
+  s.path_message = r.message;
+  if (r.ok()) {
+    s.path_length = r.length;
+    s.path_clear = std::none_of(r.cells.begin(), r.cells.end(),
+                                [&](const maps::GridCell& c) { return truth_cells.at(c.x, c.y); });
+  }
+  for (const sim::StaticObject* w : objects) {
+    ++s.object_goals;
+    const nav::PlanResult into = nav::plan_path(g, from, w->center.head<2>(), po);
+    if (into.status == nav::PlanStatus::kGoalBlocked) {
+      ++s.object_goals_refused;
+      if (s.object_goal_message.empty()) s.object_goal_message = w->label + ": " + into.message;
+    }
+  }
+}
+
 }  // namespace
 
 SimObjectScores run_sim_objects(const SimObjectRunOptions& o) {
@@ -53,15 +134,17 @@ SimObjectScores run_sim_objects(const SimObjectRunOptions& o) {
   sim::Simulator sim(std::move(scenario));
   const Calibration& calib = sim.calibration();
   semantic::ObjectDatabase db;
-  maps::MapBuilder maps_builder;
+  maps::MapBuilder maps_builder(maps::map_builder_options(calib.depth_max));
   std::vector<double> obj_ms, map_ms;
   std::map<int, int> given;  // world object id -> keyframes it was given as a detection
   const int min_pixels = 400;
   SimObjectScores s;
   const bool ground_robot = sim.scenario().trajectory.kind == "ugv" && o.robot_radius > 0.0;
+  std::vector<Vec2> places;  // the keyframes' body positions, for the planning check
   for (int k = 0; k < sim.frame_count(); k += o.keyframe_every) {
     const sim::SimFrame f = sim.render(k);
     const SE3 T_w_c = sim.camera_pose(f.time);
+    places.push_back((T_w_c * calib.T_body_camera.inverse()).translation().head<2>());
     // Mover ids whose pixels are masked: all, or only people and movers that move now.
     std::vector<bool> masked_id(sim.world().movers().size() + 1, true);
     masked_id[0] = false;
@@ -169,6 +252,7 @@ SimObjectScores run_sim_objects(const SimObjectRunOptions& o) {
       paths.emplace_back();
       for (const Vec3& p : m.path) paths.back().push_back(p.head<2>());
     }
+    plan_on_grid(g, truth_cells, places, truth, o.robot_radius, s);
     // Within 0.5 m of a walker's path: about a person's reach and stride.
     s.dynamic_residue = g.empty() ? 0.0
                                   : eval::dynamic_residue(maps_builder.octree().occupied_voxels(),

@@ -33,7 +33,7 @@ struct SimObjectRunOptions {
   bool moving_flags = true;
   // A ground robot's (trajectory kind ugv) body radius: its disc at each keyframe is free in the
   // grid (footprint clearing), as on the agent. 0: none.
-  double robot_radius = 0.25;                         // metres
+  double robot_radius = 0.25;                         // metres; also the planner's
   std::function<void(sim::Scenario&)> edit_scenario;  // applied after loading, before the run
   // Called after each keyframe's update, with the keyframe's true time.
   std::function<void(const sim::Simulator&, double t, const semantic::ObjectDatabase&)> on_keyframe;
@@ -49,7 +49,18 @@ struct SimObjectScores {
   double size_error_median = 0;    // relative, over matches and axes
   double grid_iou = 0;             // occupied cells vs the world's static geometry (1-cell slack)
   double dynamic_residue = 0;      // occupied voxels on mover paths off static geometry, fraction
-  double object_ms_median = 0;     // per keyframe update
+  // A* on the built grid (nav::plan_path, robot radius 0.25 m) between the two keyframe places
+  // farthest apart that the inflated grid holds free: found, its length, whether no cell of it
+  // lies on the world's static geometry, and why not when not found. Then each truth object's
+  // centre as the goal: refused (goal blocked), as a goal inside an obstacle must be.
+  bool path_found = false;
+  double path_length = 0;
+  bool path_clear = false;
+  std::string path_message;
+  int object_goals = 0;
+  int object_goals_refused = 0;
+  std::string object_goal_message;  // the first refusal's, for the report
+  double object_ms_median = 0;      // per keyframe update
   double map_ms_median = 0;
   int keyframes = 0;
   std::vector<std::string> lines;  // one per truth object, for the report

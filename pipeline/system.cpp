@@ -150,7 +150,7 @@ struct System::Impl {
   // Mapping thread: dense maps and objects per keyframe. Never drops a keyframe: the tracking
   // thread waits when it falls behind (DESIGN.md).
   BoundedQueue<MappingJob> mapping_jobs{8, FullPolicy::kBlock};
-  maps::MapBuilder map_builder;
+  maps::MapBuilder map_builder{maps::map_builder_options(calib.depth_max)};
   semantic::ObjectDatabase objects;
   // Loop-closing thread: place recognition on every keyframe; the pose graph over keyframes
   // runs when the run ends and corrects keyframes, objects and the trajectory.

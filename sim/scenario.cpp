@@ -237,6 +237,9 @@ Scenario parse_scenario_yaml(const std::string& text, const std::string& name,
   if (ss.depth_max > 13.0)
     r.fail(sen["depth_max"], "sensor.depth_max", "16-bit depth at 5000 per metre ends at 13.1 m");
   ss.edge_holes = r.fraction(sen, "edge_holes", ss.edge_holes, "sensor.");
+  // The sequence's calibration says the sensor's range, so the maps trust its depth as far as
+  // it reaches (calib.yaml: depth_max).
+  s.calib.depth_max = ss.depth_max;
   ss.motion_blur = static_cast<int>(r.get(sen, "motion_blur", 0, "sensor."));
   ss.exposure_time = r.get(sen, "exposure_time", ss.exposure_time, "sensor.");
   ss.jitter = r.get(sen, "jitter", 0.0, "sensor.");

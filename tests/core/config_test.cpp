@@ -41,6 +41,12 @@ TEST(Config, KestrelDialectRoundTrips) {
   EXPECT_TRUE(back.calib.has_imu);
   EXPECT_DOUBLE_EQ(back.calib.imu.gyro_noise, 1.6968e-4);
   EXPECT_DOUBLE_EQ(back.calib.depth_scale, 1000.0);
+  EXPECT_FALSE(back.calib.depth_max);  // unsaid stays unsaid
+  c.depth_max = 13.0;
+  const Config ranged = parse_config(to_yaml(c), "roundtrip.yaml");
+  ASSERT_TRUE(ranged.calib.depth_max);
+  EXPECT_DOUBLE_EQ(*ranged.calib.depth_max, 13.0);
+  EXPECT_EQ(error_of("depth_max: -2\n"), "cfg.yaml:1: field 'depth_max': must be positive, got -2");
 }
 
 TEST(Config, ReadsOrbSlam3OldFormatWithOpenCvHeader) {

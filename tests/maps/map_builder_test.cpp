@@ -70,6 +70,37 @@ TEST(MapBuilder, AWallBecomesOccupiedCellsAndTheSpaceBeforeItFree) {
   EXPECT_TRUE(!behind || g.at(*behind) == kUnknown);
 }
 
+// A sensor that ranges 13 m (a drone's, seen 11 m away at 45 degrees down): its calibration's
+// range makes a wall 10 m away a surface of the map; the defaults (an 8 m sensor) only carve
+// towards it, 8 m of free space and no wall.
+TEST(MapBuilder, TheSensorsRangeDecidesHowFarSurfacesAreTrusted) {
+  const MapBuilderOptions d = map_builder_options(std::nullopt);
+  EXPECT_DOUBLE_EQ(d.max_depth, MapBuilderOptions{}.max_depth);
+  EXPECT_DOUBLE_EQ(d.octree.max_range, MapBuilderOptions{}.octree.max_range);
+  const MapBuilderOptions far = map_builder_options(13.0);
+  EXPECT_DOUBLE_EQ(far.max_depth, 12.0);
+  EXPECT_DOUBLE_EQ(far.octree.max_range, 13.0);
+
+  const PinholeCamera cam = test::small_camera();
+  const SE3 T = test::looking_along_x(Vec3(0, 0, 1.0));
+  const Image depth = test::wall_depth(cam, T, 10.0, {});
+  const auto wall_cells = [&](MapBuilderOptions o) {
+    o.octree_stride = 1;  // every pixel of the quarter-VGA camera, as dense as stride 4 at VGA
+    MapBuilder b(o);
+    b.insert(keyframe(cam, T, depth));
+    const OccupancyGrid g = b.grid();
+    int n = 0;
+    for (double y = -2.0; y <= 2.0; y += 0.1)
+      if (const auto c = g.cell_of(Vec2(10.02, y)); c && g.at(*c) == kOccupied) ++n;
+    const auto before = g.cell_of(Vec2(7.5, 0.0));
+    return std::make_pair(n, before && g.at(*before) == kFree);
+  };
+  EXPECT_EQ(wall_cells(d).first, 0);
+  const auto [ranged_wall, ranged_free_before] = wall_cells(far);
+  EXPECT_GE(ranged_wall, 35);
+  EXPECT_TRUE(ranged_free_before);
+}
+
 TEST(MapBuilder, AWalkerWhoLeftIsCarvedAway) {
   const PinholeCamera cam = test::small_camera();
   MapBuilderOptions opt;

@@ -90,6 +90,32 @@ TEST(SimObjects, MarketAndUgvLoopObjects) {
   }
 }
 
+// Issue 6's planning check on every scenario's grid (ground-truth poses, 20 s, movers masked):
+// A* between the two keyframe places farthest apart finds a path whose cells are all off the
+// world's static geometry, and refuses every object's centre as a goal with a message that
+// says why.
+TEST(SimObjects, AStarOnEveryScenarioGrid) {
+  for (const std::string name :
+       {"cafe", "market", "ugv-loop", "uav-zigzag", "office-static", "corridor-dark"}) {
+    pipeline::SimObjectRunOptions o;
+    o.scenario = name;
+    o.duration = 20.0;
+    if (const char* out = std::getenv("KESTREL_SIM_OUT")) o.out_dir = std::string(out) + "/" + name;
+    const auto s = pipeline::run_sim_objects(o);
+    std::printf("[%s] path %s, %.1f m, %s; object goals refused %d of %d (%s)\n", name.c_str(),
+                s.path_found ? "found" : s.path_message.c_str(), s.path_length,
+                s.path_clear ? "clear of the world" : "touches the world", s.object_goals_refused,
+                s.object_goals, s.object_goal_message.c_str());
+    EXPECT_TRUE(s.path_found) << name << ": " << s.path_message;
+    EXPECT_TRUE(s.path_clear) << name;
+    EXPECT_GE(s.path_length, 2.0) << name;
+    EXPECT_EQ(s.object_goals_refused, s.object_goals) << name;
+    if (s.object_goals > 0) {
+      EXPECT_NE(s.object_goal_message.find("goal ("), std::string::npos) << s.object_goal_message;
+    }
+  }
+}
+
 // Other scenarios on request (KESTREL_SIM_SCENARIOS="market ugv-loop"): figures for the report.
 TEST(SimObjects, ScenariosOnRequest) {
   const char* names = std::getenv("KESTREL_SIM_SCENARIOS");
