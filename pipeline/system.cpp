@@ -150,6 +150,7 @@ struct System::Impl {
   // Mapping thread: dense maps and objects per keyframe. Never drops a keyframe: the tracking
   // thread waits when it falls behind (DESIGN.md).
   BoundedQueue<MappingJob> mapping_jobs{8, FullPolicy::kBlock};
+  std::optional<Timestamp> last_dense_t;  // the latest keyframe the dense maps took
   maps::MapBuilder map_builder{maps::map_builder_options(calib.depth_max)};
   semantic::ObjectDatabase objects;
   // Loop-closing thread: place recognition on every keyframe; the pose graph over keyframes
@@ -1089,15 +1090,20 @@ struct System::Impl {
       const std::vector<std::uint8_t> mask =
           maps::static_mask_from_boxes(f.depth.width, f.depth.height, job->masked);
       auto t0 = Clock::now();
-      maps::MapKeyframe mk;
-      mk.T_w_c = job->T_w_c;
-      mk.color = &f.color;
-      mk.depth = &f.depth;
-      mk.depth_scale = f.depth_scale;
-      mk.camera = calib.camera;
-      mk.static_mask = &mask;
-      map_builder.insert(mk);
-      stats.record("mapping.dense", ms_since(t0));
+      if (!last_dense_t || to_seconds(job->t - *last_dense_t) >= options.dense_map_interval_s) {
+        maps::MapKeyframe mk;
+        mk.T_w_c = job->T_w_c;
+        mk.color = &f.color;
+        mk.depth = &f.depth;
+        mk.depth_scale = f.depth_scale;
+        mk.camera = calib.camera;
+        mk.static_mask = &mask;
+        map_builder.insert(mk);
+        last_dense_t = job->t;
+        stats.record("mapping.dense", ms_since(t0));
+      } else {
+        stats.count("mapping.dense_skipped");
+      }
       t0 = Clock::now();
       semantic::ObjectKeyframe ok;
       ok.keyframe_id = job->keyframe_id;

@@ -230,6 +230,17 @@ struct SystemOptions {
   // tracking and detection (0: the same): on two cores the three of them compete with the two
   // per-frame threads, and a frame's pose waited behind a local BA.
   int background_nice = 10;
+  // The dense maps (cloud, OctoMap, grid) take a keyframe at most this often (stream seconds;
+  // the object database takes every one). 0: every keyframe. Keyframes come 6-11 a second on
+  // market and uav-zigzag with nearly the same view, and since the maps trust a drone's depth
+  // to its sensor's 13 m (maps::map_builder_options) one insertion costs the mapping thread
+  // about 150 ms there: the tracking thread waited on its queue and a live run of uav-zigzag
+  // (seed 1, --realtime) dropped 522-543 of 1501 frames (216 with the old 8 m), frame to pose
+  // p99 222-246 ms. With 0.25 s: 22-48 dropped, p99 45-67 ms; APE 0.054 / 0.104 m against
+  // 0.031 / 0.034 with the drops (lock-step, every frame: 0.072). Live market seed 1: 0 dropped
+  // either way, p99 27 -> 24 ms. The maps are scored at 3 keyframes a second (kestrel bench
+  // --only objects).
+  double dense_map_interval_s = 0.25;
   // Live (not sequential) runs wait at most this long for the IMU to pass a frame's stamp.
   double imu_wait_ms = 20.0;
 };
