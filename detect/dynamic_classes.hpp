@@ -12,7 +12,7 @@ namespace kestrel::detect {
 // The class score a dynamic-class box needs to count as a mover's (YOLO's usual 0.25). The
 // pipeline's detector reports boxes from kPipelineYoloMinScore up (yolo_fastest.hpp), for the
 // object database; a weaker mover box would cost the filter scenery it cannot spare: over nine
-// 60 s draws a 0.10 threshold for every class made APE worse on six (yolo_fastest.hpp).
+// 60 s draws, 0.10 for every class (at 416) made APE worse on six (yolo_fastest.hpp).
 inline constexpr float kMoverMinScore = 0.25f;
 
 // person, bicycle, car, motorcycle, bus, truck, dog, cat, horse, bird, sheep, cow.

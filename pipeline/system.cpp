@@ -147,8 +147,9 @@ struct System::Impl {
   std::thread tracking_thread;
   std::thread detection_thread;
   std::thread mapping_thread;
-  // Mapping thread: dense maps and objects per keyframe. Never drops a keyframe: the tracking
-  // thread waits when it falls behind (DESIGN.md).
+  // Mapping thread: objects per keyframe, and the dense maps for one keyframe every
+  // options.dense_map_interval_s. Never drops a keyframe: the tracking thread waits when it
+  // falls behind (DESIGN.md).
   BoundedQueue<MappingJob> mapping_jobs{8, FullPolicy::kBlock};
   std::optional<Timestamp> last_dense_t;  // the latest keyframe the dense maps took
   maps::MapBuilder map_builder{maps::map_builder_options(calib.depth_max)};
