@@ -9,6 +9,7 @@
 #include <limits>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <thread>
 
 #include "comm/grid_delta.hpp"
@@ -285,11 +286,14 @@ AgentRunSummary run_agent(io::MeasurementSource& source, const AgentRunOptions& 
   AgentRunSummary summary;
   auto last_grid = std::chrono::steady_clock::now();
   bool new_keyframes = false;
+  std::optional<Timestamp> last_mapped;  // the dense maps' pace, as the System's
 
   auto update_map = [&] {
     for (const auto& [t, T_w_body] : keyframes.take()) {
+      if (last_mapped && to_seconds(t - *last_mapped) < sys_opt.dense_map_interval_s) continue;
       for (const RgbdFrame& f : recent) {
         if (f.t != t || f.depth.empty()) continue;
+        last_mapped = t;
         maps::MapKeyframe kf;
         kf.T_w_c = T_w_body * calib.T_body_camera;
         kf.color = &f.color;
