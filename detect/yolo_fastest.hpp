@@ -101,10 +101,11 @@ struct YoloFastestOptions {
 // (YOLO-Fastest xl calls cafe's rendered chairs chairs at 0.1-0.2, seldom above 0.25), and the
 // object database asks several views to agree before it reports one; movers' boxes still need
 // kMoverMinScore (dynamic_classes.hpp), so the dynamic filter and the trajectory are unchanged.
-// Eight 60 s draws (cafe seeds 1-4, market 1-3, ugv-loop; kestrel run, objects against the
-// world), 0.25 -> 0.15: 19 -> 27 of 56 truth objects found, with 27 -> 40 reports of which 19
-// -> 27 right; the trajectories the same to the byte. At 0.10: 29 found, 54 reports (29 right);
-// at 0.07 (cafe 1-2, market 1, ugv-loop) 16 of 28 found, 35 reports.
+// Eight draws of the scenarios' own length (cafe seeds 1-4, 30 s; market 1-3, 50 s; ugv-loop,
+// 60 s; kestrel run, objects against the world), 0.25 -> 0.15: 19 -> 27 of 56 truth objects
+// found, with 27 -> 40 reports of which 19 -> 27 right; the trajectories the same to the byte.
+// At 0.10: 29 found, 54 reports (29 right); at 0.07 (cafe 1-2, market 1, ugv-loop) 16 of 28
+// found, 35 reports.
 inline constexpr float kPipelineYoloMinScore = 0.15f;
 
 // What kestrel run, the agent and the benches build their detector with: `model` at 320, one
