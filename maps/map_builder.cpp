@@ -48,8 +48,8 @@ double smoothed_depth(const Image& depth, int u, int v, int radius, double noise
 void mark_unreachable_unknown(OccupancyGrid& g, const std::vector<Vec2>& seeds_xy,
                               double seed_radius) {
   const int w = g.width(), h = g.height();
-  std::vector<std::uint8_t> reached(g.cells().size(), 0);
-  std::vector<GridCell> stack;
+  const std::vector<int> region = free_regions(g);
+  std::vector<std::uint8_t> reached;  // per region
   const int r = static_cast<int>(std::ceil(seed_radius / g.resolution()));
   for (const Vec2& xy : seeds_xy) {
     // The nearest free cell within the radius (the cells under a camera are rarely seen).
@@ -67,22 +67,16 @@ void mark_unreachable_unknown(OccupancyGrid& g, const std::vector<Vec2>& seeds_x
           seed = {x, y};
         }
       }
-    if (seed.x < 0 || reached[g.index(seed)]) continue;
-    reached[g.index(seed)] = 1;
-    stack.push_back(seed);
-    while (!stack.empty()) {
-      const GridCell c = stack.back();
-      stack.pop_back();
-      const GridCell next[4] = {{c.x + 1, c.y}, {c.x - 1, c.y}, {c.x, c.y + 1}, {c.x, c.y - 1}};
-      for (const GridCell& n : next) {
-        if (!g.contains(n) || reached[g.index(n)] || g.at(n) != kFree) continue;
-        reached[g.index(n)] = 1;
-        stack.push_back(n);
-      }
-    }
+    if (seed.x < 0) continue;
+    const auto label = static_cast<std::size_t>(region[g.index(seed)]);
+    if (label >= reached.size()) reached.resize(label + 1, 0);
+    reached[label] = 1;
   }
-  for (std::size_t i = 0; i < g.cells().size(); ++i)
-    if (g.cells()[i] == kFree && !reached[i]) g.cells()[i] = kUnknown;
+  for (std::size_t i = 0; i < g.cells().size(); ++i) {
+    if (g.cells()[i] != kFree) continue;
+    const auto label = static_cast<std::size_t>(region[i]);
+    if (label >= reached.size() || !reached[label]) g.cells()[i] = kUnknown;
+  }
 }
 
 std::vector<std::uint8_t> static_mask_from_boxes(int width, int height,

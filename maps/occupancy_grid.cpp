@@ -1,6 +1,7 @@
 #include "maps/occupancy_grid.hpp"
 
 #include <cmath>
+#include <vector>
 
 namespace kestrel::maps {
 
@@ -23,6 +24,33 @@ std::optional<GridCell> OccupancyGrid::cell_of(const Vec2& xy) const {
 
 Vec2 OccupancyGrid::center_of(const GridCell& c) const {
   return origin_ + Vec2((c.x + 0.5) * resolution_, (c.y + 0.5) * resolution_);
+}
+
+std::vector<int> free_regions(const OccupancyGrid& g) {
+  std::vector<int> label(g.cells().size(), -1);
+  const auto open = [&](const GridCell& c) {
+    return g.contains(c) && g.at(c) == kFree && label[g.index(c)] < 0;
+  };
+  int next = 0;
+  std::vector<GridCell> stack;
+  for (int y = 0; y < g.height(); ++y)
+    for (int x = 0; x < g.width(); ++x) {
+      if (!open({x, y})) continue;
+      label[g.index({x, y})] = next;
+      stack.push_back({x, y});
+      while (!stack.empty()) {
+        const GridCell c = stack.back();
+        stack.pop_back();
+        const GridCell around[4] = {{c.x + 1, c.y}, {c.x - 1, c.y}, {c.x, c.y + 1}, {c.x, c.y - 1}};
+        for (const GridCell& n : around)
+          if (open(n)) {
+            label[g.index(n)] = next;
+            stack.push_back(n);
+          }
+      }
+      ++next;
+    }
+  return label;
 }
 
 }  // namespace kestrel::maps

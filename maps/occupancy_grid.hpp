@@ -67,4 +67,9 @@ class OccupancyGrid {
   std::vector<std::int8_t> cells_;
 };
 
+// The grid's free regions: per cell, the label of the 4-connected region of kFree cells it lies
+// in, -1 for a cell that is not kFree. For A*'s 8 neighbours without corner cutting these are
+// the same regions (a diagonal step needs both of its orthogonal cells open).
+std::vector<int> free_regions(const OccupancyGrid& g);
+
 }  // namespace kestrel::maps

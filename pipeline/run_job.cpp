@@ -362,8 +362,6 @@ RunSummary run_sequence(io::MeasurementSource& source, const RunOptions& options
     // summary.json is the last file and carries the time of all the others but itself.
     summary.outputs_write_s =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t_write).count();
-    summary.outputs_files = 0;
-    summary.outputs_bytes = 0;
     for (const auto& e : std::filesystem::directory_iterator(options.out_dir)) {
       if (!e.is_regular_file()) continue;
       ++summary.outputs_files;

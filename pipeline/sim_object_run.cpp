@@ -45,35 +45,6 @@ eval::ObjectBox box_of(const std::string& label, const Vec3& center, const Vec3&
   return {label, center, size, yaw, observations};
 }
 
-// Free regions of a grid: a label per cell (-1 blocked or unknown), 4-connected, which for A*'s
-// 8 neighbours without corner cutting are the same regions.
-std::vector<int> free_regions(const maps::OccupancyGrid& g, int occupied_percent) {
-  std::vector<int> label(g.cells().size(), -1);
-  const auto open = [&](const maps::GridCell& c) {
-    return g.contains(c) && g.at(c) >= 0 && g.at(c) < occupied_percent && label[g.index(c)] < 0;
-  };
-  int next = 0;
-  std::vector<maps::GridCell> stack;
-  for (int y = 0; y < g.height(); ++y)
-    for (int x = 0; x < g.width(); ++x) {
-      if (!open({x, y})) continue;
-      label[g.index({x, y})] = next;
-      stack.push_back({x, y});
-      while (!stack.empty()) {
-        const maps::GridCell c = stack.back();
-        stack.pop_back();
-        for (const maps::GridCell nb : {maps::GridCell{c.x + 1, c.y}, maps::GridCell{c.x - 1, c.y},
-                                        maps::GridCell{c.x, c.y + 1}, maps::GridCell{c.x, c.y - 1}})
-          if (open(nb)) {
-            label[g.index(nb)] = next;
-            stack.push_back(nb);
-          }
-      }
-      ++next;
-    }
-  return label;
-}
-
 // Issue 6's planning check on the built grid: a path between two places the camera passed that
 // lie in one free region the robot fits in (a drone's grid is a patchwork of what it looked at,
 // and a handheld camera's of what it faced), clear of the world's static geometry; and no path
@@ -85,7 +56,7 @@ void plan_on_grid(const maps::OccupancyGrid& g, const eval::CellMask& truth_cell
   nav::PlannerOptions po;
   po.robot_radius = radius;
   const maps::OccupancyGrid inflated = nav::inflate(g, radius);
-  const std::vector<int> region = free_regions(inflated, po.occupied_percent);
+  const std::vector<int> region = maps::free_regions(inflated);
   std::map<int, std::vector<Vec2>> by_region;
   for (const Vec2& p : places)
     if (const auto c = inflated.cell_of(p); c && region[inflated.index(*c)] >= 0)

@@ -107,8 +107,9 @@ struct TrackerOptions {
   double close_depth = 3.0;  // metres: "close" points are reliable for new map points
   // Per keyframe, nearest first, even beyond close_depth. ORB-SLAM2's RGB-D rule asks for 100;
   // Kestrel's scenes see most of their scenery beyond 3 m, and a keyframe's 100 points left
-  // frames 100-250 inliers of 1000 features in a static office. With 300, over twenty 60 s
-  // draws (office-static 3, ugv-loop 1, cafe 4, market 4, uav-zigzag 8, default flags) APE
+  // frames 100-250 inliers of 1000 features in a static office. With 300, over twenty draws
+  // of each scenario's length (office-static 3 and ugv-loop 1 of 60 s, cafe 4 of 30 s, market 4
+  // and uav-zigzag 8 of 50 s; default flags) APE
   // summed 0.782 -> 0.583 m, better on 15, worse on 5; office-static in RGB-D alone 1.44 / 1.78
   // / 1.16 -> 1.01 / 0.91 / 1.20 cm (issue 4 asks 1.5). 200 gave 2.29 / 1.86 / 1.24 there.
   int min_new_points = 300;
