@@ -10,12 +10,35 @@
 
 #include "core/error.hpp"
 #include "maps/free_space_rule.hpp"
+#include "maps/octree_batch_update.hpp"
+#include "maps/scan_cell_set.hpp"
+#include "maps/voxel_key_index.hpp"
 
 namespace kestrel::maps {
+
+namespace {
+
+std::uint64_t pack(const octomap::OcTreeKey& k) { return VoxelKeyIndex::pack(k[0], k[1], k[2]); }
+
+}  // namespace
 
 struct OccupancyOctree::Impl {
   explicit Impl(double res) : tree(res) {}
   octomap::OcTree tree;
+  // One scan's cells, kept between scans so their tables are allocated once.
+  ScanCellSet free_cells;
+  VoxelKeyIndex occupied_cells, end_voxels;
+  octomap::KeyRay ray;
+  std::vector<CellUpdate> updates;
+
+  ScanCellSet& reset_free_cells(const octomap::point3d& origin, double max_range) {
+    octomap::OcTreeKey k;
+    if (!tree.coordToKeyChecked(origin, k)) k = octomap::OcTreeKey(32768, 32768, 32768);
+    // The rays end within max_range of the origin: a cube of that half-side holds them all.
+    const int half = static_cast<int>(std::ceil(max_range / tree.getResolution())) + 2;
+    free_cells.reset(pack(k), half);
+    return free_cells;
+  }
 };
 
 OccupancyOctree::OccupancyOctree(const OctreeOptions& options)
@@ -27,6 +50,7 @@ OccupancyOctree::OccupancyOctree(const OctreeOptions& options)
   t.setClampingThresMax(options.clamp_max);
 }
 OccupancyOctree::~OccupancyOctree() = default;
+
 OccupancyOctree::OccupancyOctree(OccupancyOctree&&) noexcept = default;
 OccupancyOctree& OccupancyOctree::operator=(OccupancyOctree&&) noexcept = default;
 
@@ -48,8 +72,12 @@ void OccupancyOctree::insert_scan(const Vec3& origin, const std::vector<Eigen::V
   auto& t = impl_->tree;
   const octomap::point3d o(static_cast<float>(origin.x()), static_cast<float>(origin.y()),
                            static_cast<float>(origin.z()));
-  octomap::KeySet free_cells, occupied_cells, end_voxels;
-  octomap::KeyRay ray;
+  ScanCellSet& free_cells = impl_->reset_free_cells(o, options_.max_range);
+  VoxelKeyIndex& occupied_cells = impl_->occupied_cells;
+  VoxelKeyIndex& end_voxels = impl_->end_voxels;
+  occupied_cells.clear();
+  end_voxels.clear();
+  octomap::KeyRay& ray = impl_->ray;
   const auto max_range = static_cast<float>(options_.max_range);
   for (std::size_t i = 0; i < points_w.size(); ++i) {
     const octomap::point3d p(points_w[i].x(), points_w[i].y(), points_w[i].z());
@@ -58,16 +86,20 @@ void OccupancyOctree::insert_scan(const Vec3& origin, const std::vector<Eigen::V
     // carve nearly the same cells, and casting each would double a keyframe's time.
     octomap::OcTreeKey k;
     if (!t.coordToKeyChecked(p, k)) continue;
-    if ((p - o).norm() <= max_range && !occupied_cells.insert(k).second) continue;
-    if (!end_voxels.insert(k).second) continue;
+    if ((p - o).norm() <= max_range && !occupied_cells.insert(pack(k)).second) continue;
+    if (!end_voxels.insert(pack(k)).second) continue;
     const octomap::point3d d = end - o;
     if (d.norm() > max_range) end = o + d * (max_range / d.norm());
-    if (t.computeRayKeys(o, end, ray)) free_cells.insert(ray.begin(), ray.end());
+    if (t.computeRayKeys(o, end, ray))
+      for (const auto& rk : ray) free_cells.insert(pack(rk));
   }
-  for (const auto& k : free_cells)
-    if (!occupied_cells.count(k)) t.updateNode(k, false, false);
-  // Not lazy: updateInnerOccupancy walks the whole tree, which grows with the map.
-  for (const auto& k : occupied_cells) t.updateNode(k, true, false);
+  std::vector<CellUpdate>& updates = impl_->updates;
+  updates.clear();
+  for (std::size_t i = 0; i < free_cells.size(); ++i)
+    if (!occupied_cells.contains(free_cells.key(i))) updates.push_back({free_cells.key(i), false});
+  for (std::size_t i = 0; i < occupied_cells.size(); ++i)
+    updates.push_back({occupied_cells.key(i), true});
+  apply_cell_updates(t, updates);
 }
 
 void OccupancyOctree::insert_free_rays(const Vec3& origin,
@@ -75,16 +107,20 @@ void OccupancyOctree::insert_free_rays(const Vec3& origin,
   auto& t = impl_->tree;
   const octomap::point3d o(static_cast<float>(origin.x()), static_cast<float>(origin.y()),
                            static_cast<float>(origin.z()));
-  octomap::KeySet free_cells;
-  octomap::KeyRay ray;
+  ScanCellSet& free_cells = impl_->reset_free_cells(o, options_.max_range);
+  octomap::KeyRay& ray = impl_->ray;
   for (const auto& e : ends_w) {
     octomap::point3d end(e.x(), e.y(), e.z());
     const octomap::point3d d = end - o;
     if (d.norm() > options_.max_range)
       end = o + d * static_cast<float>(options_.max_range / d.norm());
-    if (t.computeRayKeys(o, end, ray)) free_cells.insert(ray.begin(), ray.end());
+    if (t.computeRayKeys(o, end, ray))
+      for (const auto& rk : ray) free_cells.insert(pack(rk));
   }
-  for (const auto& k : free_cells) t.updateNode(k, false, false);
+  std::vector<CellUpdate>& updates = impl_->updates;
+  updates.clear();
+  for (std::size_t i = 0; i < free_cells.size(); ++i) updates.push_back({free_cells.key(i), false});
+  apply_cell_updates(t, updates);
 }
 
 bool OccupancyOctree::is_occupied(const Vec3& p) const {

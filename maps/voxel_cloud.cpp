@@ -15,7 +15,9 @@ std::uint64_t VoxelCloud::key(const Eigen::Vector3f& p) const {
 
 void VoxelCloud::add(const Eigen::Vector3f& p, std::uint8_t r, std::uint8_t g, std::uint8_t b,
                      std::uint16_t label) {
-  Accum& a = voxels_[key(p)];
+  const auto [i, fresh] = index_.insert(key(p));
+  if (fresh) accums_.emplace_back();
+  Accum& a = accums_[i];
   a.sx += p.x();
   a.sy += p.y();
   a.sz += p.z();
@@ -33,8 +35,8 @@ void VoxelCloud::add(const Eigen::Vector3f& p, std::uint8_t r, std::uint8_t g, s
 
 std::vector<CloudPoint> VoxelCloud::points() const {
   std::vector<CloudPoint> out;
-  out.reserve(voxels_.size());
-  for (const auto& [k, a] : voxels_) {
+  out.reserve(accums_.size());
+  for (const Accum& a : accums_) {
     CloudPoint c;
     c.p = mean(a);
     c.r = static_cast<std::uint8_t>(a.sr / a.n);

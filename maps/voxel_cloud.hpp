@@ -1,12 +1,13 @@
 #pragma once
 // A voxel-downsampled coloured, labelled point cloud: every voxel keeps the mean position and
 // colour of the points that fell in it and the label most of them carried (Boyer-Moore vote,
-// so a voxel costs a few bytes whatever the number of votes).
+// so a voxel costs a few bytes whatever the number of votes). Voxels are kept in the order they
+// were first seen, and points() returns them so.
 #include <cstdint>
-#include <unordered_map>
 #include <vector>
 
 #include "core/eigen_types.hpp"
+#include "maps/voxel_key_index.hpp"
 
 namespace kestrel::maps {
 
@@ -21,8 +22,11 @@ class VoxelCloud {
   explicit VoxelCloud(double voxel_size = 0.03) : voxel_(voxel_size) {}
 
   double voxel_size() const { return voxel_; }
-  std::size_t size() const { return voxels_.size(); }
-  void clear() { voxels_.clear(); }
+  std::size_t size() const { return accums_.size(); }
+  void clear() {
+    index_.clear();
+    accums_.clear();
+  }
 
   void add(const Eigen::Vector3f& p, std::uint8_t r, std::uint8_t g, std::uint8_t b,
            std::uint16_t label);
@@ -30,12 +34,12 @@ class VoxelCloud {
   // free space leaves the cloud too.
   template <typename Keep>
   void filter(Keep keep) {
-    for (auto it = voxels_.begin(); it != voxels_.end();) {
-      if (!keep(mean(it->second)))
-        it = voxels_.erase(it);
-      else
-        ++it;
-    }
+    std::vector<bool> kept(accums_.size());
+    std::size_t n = 0;
+    for (std::size_t i = 0; i < accums_.size(); ++i)
+      if ((kept[i] = keep(mean(accums_[i])))) accums_[n++] = accums_[i];
+    accums_.resize(n);
+    index_.compact(kept);
   }
   std::vector<CloudPoint> points() const;
 
@@ -53,7 +57,8 @@ class VoxelCloud {
   std::uint64_t key(const Eigen::Vector3f& p) const;
 
   double voxel_;
-  std::unordered_map<std::uint64_t, Accum> voxels_;
+  VoxelKeyIndex index_;  // voxel key -> position in accums_
+  std::vector<Accum> accums_;
 };
 
 }  // namespace kestrel::maps
