@@ -49,6 +49,7 @@ struct RunFlags {
   int carry_boxes = kestrel::detect::BoxCoastOptions{}.max_frames;
   bool realtime = false;
   int max_in_flight = 2;
+  double dense_map_interval = kestrel::pipeline::SystemOptions{}.dense_map_interval_s;
   double duration = -1.0;  // sim: scenes only
   bool no_movers = false;  // sim: scenes only
 };
@@ -297,6 +298,11 @@ void setup_run(CLI::App& app) {
                   "dropped, as a live camera's would be (0: never drop; the source waits)")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--dense-map-interval", flags->dense_map_interval,
+                  "S: the dense maps (cloud, OctoMap, grid) take a keyframe at most every S "
+                  "seconds of stream (0: every keyframe); the object database takes them all")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   cmd->add_option("--duration", flags->duration, "seconds of a sim: scene (default: its own)");
   cmd->add_flag("--no-movers", flags->no_movers, "a sim: scene without its walkers and vehicles");
   cmd->callback([flags] {
@@ -343,6 +349,7 @@ void setup_run(CLI::App& app) {
     opt.half_resolution_flow = flags->half_resolution_flow;
     opt.flow_skip_gate_px = flags->flow_skip_gate_px;
     opt.inertial_ba = flags->inertial_ba;
+    opt.dense_map_interval_s = flags->dense_map_interval;
     opt.gyro_rotation_prior = !flags->no_gyro_prior;
     opt.depth_carry = !flags->no_depth_carry;
     opt.corner_tracks = !flags->no_corner_tracks;

@@ -193,6 +193,8 @@ RunSummary run_sequence(io::MeasurementSource& source, const RunOptions& options
   if (options.half_resolution_flow) dynamic::use_half_resolution_flow(sys_opt.dynamic);
   if (options.flow_skip_gate_px >= 0.0) sys_opt.dynamic.fb_skip_gate_px = options.flow_skip_gate_px;
   sys_opt.inertial_ba = options.inertial_ba;
+  if (options.dense_map_interval_s >= 0.0)
+    sys_opt.dense_map_interval_s = options.dense_map_interval_s;
   sys_opt.gyro_rotation_prior = options.gyro_rotation_prior;
   sys_opt.depth_carry = options.depth_carry;
   sys_opt.corner_tracks = options.corner_tracks;

@@ -33,17 +33,18 @@ struct RunOptions {
   // A mode the dataset cannot give (stereo of an RGB-D sequence, IMU without one) is an error.
   std::string mode = "auto";
   bool loop_closing = true;
-  bool triangulate = true;            // TrackerOptions::triangulate
-  bool half_resolution_flow = false;  // dynamic::use_half_resolution_flow
-  double flow_skip_gate_px = -1.0;    // DynamicFilterOptions::fb_skip_gate_px (<0: unchanged)
-  bool inertial_ba = false;           // SystemOptions::inertial_ba
-  bool gyro_rotation_prior = true;    // SystemOptions::gyro_rotation_prior
-  bool depth_carry = true;            // SystemOptions::depth_carry
-  bool corner_tracks = true;          // SystemOptions::corner_tracks
-  bool park_vehicles = true;          // SystemOptions::park_vehicles
-  std::string out_dir;                // trajectory.txt, timing.json, summary.json
-  std::string models_dir;             // "" = find ../shared/models
-  std::string load_map;               // SystemOptions::load_map: map.bin of an earlier session
+  bool triangulate = true;             // TrackerOptions::triangulate
+  bool half_resolution_flow = false;   // dynamic::use_half_resolution_flow
+  double flow_skip_gate_px = -1.0;     // DynamicFilterOptions::fb_skip_gate_px (<0: unchanged)
+  bool inertial_ba = false;            // SystemOptions::inertial_ba
+  double dense_map_interval_s = -1.0;  // SystemOptions::dense_map_interval_s (<0: unchanged)
+  bool gyro_rotation_prior = true;     // SystemOptions::gyro_rotation_prior
+  bool depth_carry = true;             // SystemOptions::depth_carry
+  bool corner_tracks = true;           // SystemOptions::corner_tracks
+  bool park_vehicles = true;           // SystemOptions::park_vehicles
+  std::string out_dir;                 // trajectory.txt, timing.json, summary.json
+  std::string models_dir;              // "" = find ../shared/models
+  std::string load_map;                // SystemOptions::load_map: map.bin of an earlier session
   // SystemOptions::box_coasting.max_frames
   int carried_box_frames = detect::BoxCoastOptions{}.max_frames;
   bool progress = true;

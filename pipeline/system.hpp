@@ -239,7 +239,9 @@ struct SystemOptions {
   // p99 222-246 ms. With 0.25 s: 22-48 dropped, p99 45-67 ms; APE 0.054 / 0.104 m against
   // 0.031 / 0.034 with the drops (lock-step, every frame: 0.072). Live market seed 1: 0 dropped
   // either way, p99 27 -> 24 ms. The maps are scored at 3 keyframes a second (kestrel bench
-  // --only objects).
+  // --only objects). Since the batch OctoMap update (maps/octree_batch_update) an insertion costs
+  // 43-67 ms there (p50, live); live uav-zigzag seed 1 every keyframe: 0 / 3 dropped, p99 37 /
+  // 49 ms; with 0.25 s: 0 / 1 dropped, p99 29 / 32 ms.
   double dense_map_interval_s = 0.25;
   // Live (not sequential) runs wait at most this long for the IMU to pass a frame's stamp.
   double imu_wait_ms = 20.0;
