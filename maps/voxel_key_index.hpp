@@ -1,10 +1,10 @@
 #pragma once
-// Voxel keys numbered densely in the order they were first seen: an open-addressing table
-// (linear probing) over one array of keys. std::unordered_set / map allocate a node per key: a
-// drone's scan casts ~600k ray cells, and the allocator took a third of a keyframe's map
-// update. Keys come back in insertion order (along the rays; for the dense cloud, the order
-// surfaces were first seen), which keeps the octree's search paths warm and makes the files
-// written from them independent of hashing.
+// Voxel keys numbered densely in the order they were first seen: open addressing (linear
+// probing) over one table. std::unordered_set / map allocate a node per key: while
+// octomap::KeySet held a scan's cells (uav-zigzag: ~400k ray cells, ~150k distinct, a scan),
+// the allocator took a third of a keyframe's map update. Holds a scan's end voxels and the
+// dense cloud's voxels; the cloud's file then lists them in the order surfaces were first
+// seen, whatever the hashing.
 #include <cstddef>
 #include <cstdint>
 #include <utility>
