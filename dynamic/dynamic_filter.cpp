@@ -8,6 +8,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <optional>
 #include <stdexcept>
 #include <unordered_map>
@@ -283,6 +284,68 @@ std::vector<double> largest_surface(const Image& depth, double scale, const BoxR
 
 // Step 7 of classify_features (DynamicFilterOptions::coherent_neighbours): `departure[i]` is
 // where the flow put feature i in the previous frame minus where the ego-motion puts it.
+// The point of the segment a..b nearest p.
+cv::Point2d closest_on_segment(const cv::Point2d& p, const cv::Point2d& a, const cv::Point2d& b) {
+  const cv::Point2d ab = b - a;
+  const double len2 = ab.dot(ab);
+  return a + (len2 > 0.0 ? std::clamp((p - a).dot(ab) / len2, 0.0, 1.0) : 0.0) * ab;
+}
+
+// DynamicFilterOptions::far_parallax: for each tracked feature without depth, the distance of
+// where the flow puts it in the previous frame to where a static point on its ray could have
+// been, between the nearest depth it may have (the sensor's range, or the nearest reading
+// around it: an edge's hole) and infinity. X_prev = R X_cur + t.
+void far_parallax_residuals(const DynamicFilterInput& in, const DynamicFilterOptions& opt,
+                            const std::vector<bool>& valid,
+                            const std::vector<cv::Point2f>& pts_prev, const cv::Matx33d& R,
+                            const cv::Vec3d& t, std::vector<double>& far_residual,
+                            std::vector<cv::Point2f>& departure) {
+  const Mat3 Kinv = in.K.inverse();
+  const double fx = in.K(0, 0), fy = in.K(1, 1), cx = in.K(0, 2), cy = in.K(1, 2);
+  const Image* depth = in.cur_depth && !in.cur_depth->empty() && in.cur_gray &&
+                               in.cur_depth->width == in.cur_gray->width &&
+                               in.cur_depth->height == in.cur_gray->height &&
+                               in.cur_depth->type == PixelType::kU16
+                           ? in.cur_depth
+                           : nullptr;
+  const int w = std::max(0, opt.far_parallax_window_px);
+  for (std::size_t i = 0; i < in.points.size(); ++i) {
+    if (!valid[i] || (in.depth_m.size() == in.points.size() && in.depth_m[i] > 0)) continue;
+    double nearest = in.depth_range_m;
+    if (depth) {
+      const int u0 = static_cast<int>(std::lround(in.points[i].x()));
+      const int v0 = static_cast<int>(std::lround(in.points[i].y()));
+      for (int v = std::max(0, v0 - w); v <= std::min(depth->height - 1, v0 + w); ++v) {
+        const auto* row = depth->row<std::uint16_t>(v);
+        for (int u = std::max(0, u0 - w); u <= std::min(depth->width - 1, u0 + w); ++u)
+          if (row[u] > 0) nearest = std::min(nearest, row[u] / in.depth_scale);
+      }
+    }
+    const Vec3 ray = Kinv * Vec3(in.points[i].x(), in.points[i].y(), 1.0);
+    const cv::Vec3d r(ray.x(), ray.y(), ray.z());
+    // Where a static point at depth z (along the current ray) was in the previous image.
+    const auto seen_at = [&](double z) -> std::optional<cv::Point2d> {
+      const cv::Vec3d q = std::isinf(z) ? R * r : R * (z * r) + t;
+      if (q[2] <= 1e-9) return std::nullopt;
+      return cv::Point2d(fx * q[0] / q[2] + cx, fy * q[1] / q[2] + cy);
+    };
+    const auto far_end = seen_at(std::numeric_limits<double>::infinity());
+    const auto near_end = seen_at(nearest);
+    if (!far_end || !near_end) continue;
+    const cv::Point2d p(pts_prev[i].x, pts_prev[i].y);
+    cv::Point2d off = p - closest_on_segment(p, *far_end, *near_end);
+    // Or nearer than the sensor measures: from far_parallax_near_m to the camera.
+    const double near_m = std::min(opt.far_parallax_near_m, nearest);
+    const auto too_near = seen_at(near_m), nearest_end = seen_at(0.05 * near_m);
+    if (too_near && nearest_end) {
+      const cv::Point2d o2 = p - closest_on_segment(p, *too_near, *nearest_end);
+      if (std::hypot(o2.x, o2.y) < std::hypot(off.x, off.y)) off = o2;
+    }
+    far_residual[i] = std::hypot(off.x, off.y);
+    departure[i] = cv::Point2f(static_cast<float>(off.x), static_cast<float>(off.y));
+  }
+}
+
 void demote_incoherent_flow(const std::vector<cv::Point2f>& pts_cur,
                             const std::vector<cv::Point2f>& departure,
                             const DynamicFilterOptions& opt, DynamicFilterResult& out) {
@@ -512,6 +575,8 @@ const char* to_string(LabelReason r) {
       return "incoherent-flow";
     case LabelReason::kAmbiguousFlow:
       return "ambiguous-flow";
+    case LabelReason::kFarParallax:
+      return "far-parallax";
   }
   return "?";
 }
@@ -552,6 +617,7 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
   out.residual_px.assign(n, -1.0f);
   out.residual3d_px.assign(n, -1.0f);
   out.depth_change.assign(n, -1.0f);
+  out.far_residual_px.assign(n, -1.0f);
   out.box_of.assign(n, -1);
   out.prev_points.assign(n, Vec2(-1.0, -1.0));
   out.box_moving.assign(in.boxes.size(), false);
@@ -778,6 +844,7 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
   // whatever its depth: no parallax ambiguity, no degeneracy for a still or rotating camera.
   const bool has_depth = in.depth_m.size() == n;
   std::vector<double> residual3d(n, -1.0);
+  std::vector<double> far_residual(n, -1.0);  // DynamicFilterOptions::far_parallax
   std::vector<double> depth_change(n, -1.0), depth_err_m(n, -1.0);
   std::vector<cv::Point2f> departure(n, cv::Point2f(0, 0));  // flow minus ego-motion, with depth
   bool have_3d = false;
@@ -872,6 +939,8 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
           F = Kinv.t() * (tx * R_cp) * Kinv;
           out.geometry_valid = true;
         }
+        if (opt.far_parallax && in.depth_range_m > 0.0)
+          far_parallax_residuals(in, opt, valid, pts_prev, R, t, far_residual, departure);
         for (std::size_t i = 0; i < n; ++i) {
           if (!valid[i] || in.depth_m[i] <= 0) continue;
           const Vec3 X = in.depth_m[i] * (Kinv * Vec3(in.points[i].x(), in.points[i].y(), 1.0));
@@ -944,6 +1013,7 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
   out.motion_3d = have_3d;
   for (std::size_t i = 0; i < n; ++i) {
     out.residual3d_px[i] = static_cast<float>(residual3d[i]);
+    out.far_residual_px[i] = static_cast<float>(far_residual[i]);
     out.depth_change[i] = static_cast<float>(depth_change[i]);
   }
 
@@ -1091,6 +1161,11 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
       continue;
     }
     if (!in_box) {
+      if (far_residual[i] > thr3d) {
+        out.labels[i] = FeatureLabel::kDynamic;
+        out.reasons[i] = LabelReason::kFarParallax;
+        continue;
+      }
       if (depth_moved(i) && score[i] <= thr_out[i]) {
         out.labels[i] = FeatureLabel::kDynamic;
         out.reasons[i] = LabelReason::kDepthChange;

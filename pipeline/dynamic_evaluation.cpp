@@ -62,6 +62,7 @@ DynamicEvalScene load_dynamic_eval_scene(const std::string& dir,
   DynamicEvalScene scene;
   scene.dir = dir;
   scene.K = calib.camera.K();
+  scene.depth_range_m = calib.depth_max.value_or(0.0);
   // All frames and IMU samples first: the gyro rotation of a frame needs the samples after it.
   std::vector<RgbdFrame> frames;
   ImuBuffer imu;
@@ -143,6 +144,7 @@ DynamicEvalResult evaluate_dynamic_filter(const DynamicEvalScene& scene,
     if (!f.depth.empty()) in.cur_depth = &f.depth;
     in.depth_scale = f.depth_scale;
     in.K = scene.K;
+    in.depth_range_m = scene.depth_range_m;
     // Frame k against frame k - gap: the older image, its depth, the gyro rotation chained.
     const auto set_prev = [&](dynamic::DynamicFilterInput& x, int gap) {
       const std::size_t prev = k - std::min<std::size_t>(k, static_cast<std::size_t>(gap));

@@ -47,6 +47,7 @@ struct DynamicEvalFrame {
 struct DynamicEvalScene {
   std::string dir;
   Mat3 K = Mat3::Identity();
+  double depth_range_m = 0.0;  // Calibration::depth_max (0: not given)
   std::vector<DynamicEvalFrame> frames;
 };
 

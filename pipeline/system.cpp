@@ -813,6 +813,7 @@ struct System::Impl {
       in.prev_depth = prev_depth.empty() ? nullptr : &prev_depth;
       in.depth_scale = prev_depth_scale;
       in.cur_depth = frame.depth.empty() ? nullptr : &frame.depth;
+      in.depth_range_m = calib.depth_max.value_or(0.0);
       in.K = calib.camera.K();
       in.prev_pyramid = &prev_pyramid;
       in.cur_pyramid_out = &cur_pyramid;

@@ -387,6 +387,73 @@ TEST(DynamicFilter, FarWalkerWithoutDepthIsRemovedFromItsBox) {
   EXPECT_LE(outside_removed, outside / 20);
 }
 
+// A mover beyond the depth sensor's range that moves along its epipolar line (a car driving
+// the way the camera moves) passes the epipolar test; with the range, a static point without
+// depth must have moved as something at least that far away does, and the mover did not.
+TEST(DynamicFilter, FarMoverAlongItsEpipolarLineIsCaughtByTheRange) {
+  // Camera 2 cm to the right; the mover (3 m) 8 cm the same way: along the epipolar lines.
+  const Scene s = make_scene({0.02, 0, 0}, {0.08, 0, 0});
+  const Image prev = to_image(s.prev), cur = to_image(s.cur);
+  DynamicFilterInput in = input_for(s, prev, cur);
+  in.depth_m = depths_of(s, 0.0);
+  for (std::size_t i = 0; i < s.points.size(); ++i) {
+    const int id =
+        s.ids.at<uint8_t>(static_cast<int>(s.points[i].y()), static_cast<int>(s.points[i].x()));
+    if (id != 1) in.depth_m[i] = 0.0;  // a 2.5 m sensor: only the box at 2 m is in range
+  }
+  DynamicFilterOptions geo;
+  geo.mode = FilterMode::kGeometryOnly;
+  const DynamicFilterResult without_range = classify_features(in, geo);
+  EXPECT_TRUE(without_range.motion_3d);
+  EXPECT_LT(score(s, without_range).removed, 30.0);
+  in.depth_range_m = 2.5;
+  const DynamicFilterResult r = classify_features(in, geo);
+  const Score with_range = score(s, r);
+  EXPECT_GE(with_range.removed, 90.0);
+  EXPECT_GE(with_range.kept, 95.0);  // the wall at 5 m moved as a far point does
+  int far_parallax = 0;
+  for (std::size_t i = 0; i < s.points.size(); ++i) {
+    if (r.reasons[i] != LabelReason::kFarParallax) continue;
+    ++far_parallax;
+    EXPECT_EQ(in.depth_m[i], 0.0);
+    EXPECT_GT(r.far_residual_px[i], r.outside_threshold_px);
+  }
+  EXPECT_GT(far_parallax, 20);
+  // Switched off, the range changes nothing.
+  geo.far_parallax = false;
+  EXPECT_EQ(classify_features(in, geo).labels, without_range.labels);
+
+  // Half the box (2 m) without depth, as where a sensor reads nothing for being too near, with
+  // a 10 m range: it moved more than anything beyond 10 m can (5.3 px against 1.1), so only the
+  // depths admitted below far_parallax_near_m keep it static.
+  DynamicFilterInput holes = in;
+  holes.depth_range_m = 10.0;
+  int box_points = 0;
+  for (std::size_t i = 0; i < s.points.size(); ++i) {
+    const int id =
+        s.ids.at<uint8_t>(static_cast<int>(s.points[i].y()), static_cast<int>(s.points[i].x()));
+    if (id == 1 && ++box_points % 2 == 0) holes.depth_m[i] = 0.0;  // PnP keeps the other half
+  }
+  const auto box_holes_kept = [&](double near_m) {
+    DynamicFilterOptions o;
+    o.mode = FilterMode::kGeometryOnly;
+    o.far_parallax_near_m = near_m;
+    const DynamicFilterResult rh = classify_features(holes, o);
+    int kept = 0, n = 0;
+    for (std::size_t i = 0; i < s.points.size(); ++i) {
+      const int id =
+          s.ids.at<uint8_t>(static_cast<int>(s.points[i].y()), static_cast<int>(s.points[i].x()));
+      if (id != 1 || holes.depth_m[i] > 0) continue;
+      ++n;
+      kept += rh.labels[i] != FeatureLabel::kDynamic;
+    }
+    EXPECT_GT(n, 10);
+    return static_cast<double>(kept) / std::max(n, 1);
+  };
+  EXPECT_GE(box_holes_kept(2.2), 0.9);
+  EXPECT_LE(box_holes_kept(0.5), 0.5);
+}
+
 TEST(DynamicFilter, MotionPriorPicksTheWorldOverACrowdMovingWithTheCamera) {
   // A crowd filling most of the view walks with the camera: between two frames it does not move
   // in the image, the wall behind it does. RANSAC takes the larger consensus, "camera still",
