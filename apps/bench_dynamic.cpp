@@ -14,6 +14,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <map>
 
 #include "apps/bench_areas.hpp"
@@ -133,9 +134,12 @@ nlohmann::json bench_dynamic(const AreaOptions& o) {
     over.duration = duration;
     sim::Simulator sim(sim::load_scenario(name, over));
     const std::string dir = (work / ("dynamic-" + name)).string();
-    // A scene rendered into --work by an earlier run with the same scenario and duration is
-    // reused (the simulator is deterministic: same seed, same bytes).
-    const std::string stamp = name + " " + std::to_string(duration) + " " + KESTREL_VERSION;
+    // A scene rendered into --work by an earlier run with the same scenario text, duration and
+    // folder layout is reused (the simulator is deterministic: same seed, same bytes). A render
+    // from before calib.yaml carried depth_max would silently turn the far-parallax test off.
+    const std::string stamp = name + " " + std::to_string(duration) + " " + KESTREL_VERSION +
+                              " layout " + std::to_string(sim::kSequenceLayout) + " scenario " +
+                              std::to_string(std::hash<std::string>{}(sim.scenario().yaml));
     const fs::path marker = fs::path(dir) / "bench-scene.txt";
     std::string old;
     if (std::ifstream in(marker); in) std::getline(in, old);

@@ -16,6 +16,10 @@ struct RecordStats {
   int frames_with_quarter_movers = 0;  // frames where movers cover >= 25 % of the image
 };
 
+// What a recorded folder holds, for caches of renders to tell an old one: raised whenever
+// record_sequence writes something new (2: calib.yaml carries the sensor's depth_max).
+constexpr int kSequenceLayout = 2;
+
 // progress(done, total) is called after each frame.
 RecordStats record_sequence(Simulator& sim, const std::string& dir,
                             const std::function<void(int, int)>& progress = {});
