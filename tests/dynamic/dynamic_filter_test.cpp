@@ -243,6 +243,19 @@ std::vector<double> depths_of(const Scene& s, double cam_z) {
   return d;
 }
 
+// The plane a feature lies on (2 = mover).
+int id_at(const Scene& s, const Vec2& p) {
+  return s.ids.at<uint8_t>(static_cast<int>(p.y()), static_cast<int>(p.x()));
+}
+
+// depths_of for a sensor that ranges only the box at 2 m.
+std::vector<double> box_depths_only(const Scene& s) {
+  std::vector<double> d = depths_of(s, 0.0);
+  for (std::size_t i = 0; i < s.points.size(); ++i)
+    if (id_at(s, s.points[i]) != 1) d[i] = 0.0;
+  return d;
+}
+
 // The current frame's depth image of make_scene's planes (16-bit, metres * scale).
 Image depth_image_of(const Scene& s, double scale) {
   Image depth = Image::allocate(640, 480, 1, PixelType::kU16);
@@ -357,12 +370,7 @@ TEST(DynamicFilter, FarWalkerWithoutDepthIsRemovedFromItsBox) {
   const Scene s = make_scene({0.02, 0, 0}, {0, 0, 0});
   const Image prev = to_image(s.prev), cur = to_image(s.cur);
   DynamicFilterInput in = input_for(s, prev, cur);
-  in.depth_m = depths_of(s, 0.0);
-  for (std::size_t i = 0; i < s.points.size(); ++i) {
-    const int id =
-        s.ids.at<uint8_t>(static_cast<int>(s.points[i].y()), static_cast<int>(s.points[i].x()));
-    if (id != 1) in.depth_m[i] = 0.0;  // only the near box is in range
-  }
+  in.depth_m = box_depths_only(s);  // only the near box is in range
   in.boxes = {mover_box(s)};
   DynamicFilterOptions off;
   off.far_box_no_depth_dynamic = false;
@@ -395,12 +403,7 @@ TEST(DynamicFilter, FarMoverAlongItsEpipolarLineIsCaughtByTheRange) {
   const Scene s = make_scene({0.02, 0, 0}, {0.08, 0, 0});
   const Image prev = to_image(s.prev), cur = to_image(s.cur);
   DynamicFilterInput in = input_for(s, prev, cur);
-  in.depth_m = depths_of(s, 0.0);
-  for (std::size_t i = 0; i < s.points.size(); ++i) {
-    const int id =
-        s.ids.at<uint8_t>(static_cast<int>(s.points[i].y()), static_cast<int>(s.points[i].x()));
-    if (id != 1) in.depth_m[i] = 0.0;  // a 2.5 m sensor: only the box at 2 m is in range
-  }
+  in.depth_m = box_depths_only(s);  // a 2.5 m sensor: only the box at 2 m is in range
   DynamicFilterOptions geo;
   geo.mode = FilterMode::kGeometryOnly;
   const DynamicFilterResult without_range = classify_features(in, geo);
@@ -429,11 +432,9 @@ TEST(DynamicFilter, FarMoverAlongItsEpipolarLineIsCaughtByTheRange) {
   DynamicFilterInput holes = in;
   holes.depth_range_m = 10.0;
   int box_points = 0;
-  for (std::size_t i = 0; i < s.points.size(); ++i) {
-    const int id =
-        s.ids.at<uint8_t>(static_cast<int>(s.points[i].y()), static_cast<int>(s.points[i].x()));
-    if (id == 1 && ++box_points % 2 == 0) holes.depth_m[i] = 0.0;  // PnP keeps the other half
-  }
+  for (std::size_t i = 0; i < s.points.size(); ++i)
+    if (id_at(s, s.points[i]) == 1 && ++box_points % 2 == 0)
+      holes.depth_m[i] = 0.0;  // PnP keeps the other half
   const auto box_holes_kept = [&](double near_m) {
     DynamicFilterOptions o;
     o.mode = FilterMode::kGeometryOnly;
@@ -441,9 +442,7 @@ TEST(DynamicFilter, FarMoverAlongItsEpipolarLineIsCaughtByTheRange) {
     const DynamicFilterResult rh = classify_features(holes, o);
     int kept = 0, n = 0;
     for (std::size_t i = 0; i < s.points.size(); ++i) {
-      const int id =
-          s.ids.at<uint8_t>(static_cast<int>(s.points[i].y()), static_cast<int>(s.points[i].x()));
-      if (id != 1 || holes.depth_m[i] > 0) continue;
+      if (id_at(s, s.points[i]) != 1 || holes.depth_m[i] > 0) continue;
       ++n;
       kept += rh.labels[i] != FeatureLabel::kDynamic;
     }
