@@ -282,8 +282,6 @@ std::vector<double> largest_surface(const Image& depth, double scale, const BoxR
   return out;
 }
 
-// Step 7 of classify_features (DynamicFilterOptions::coherent_neighbours): `departure[i]` is
-// where the flow put feature i in the previous frame minus where the ego-motion puts it.
 // The point of the segment a..b nearest p.
 cv::Point2d closest_on_segment(const cv::Point2d& p, const cv::Point2d& a, const cv::Point2d& b) {
   const cv::Point2d ab = b - a;
@@ -298,8 +296,7 @@ cv::Point2d closest_on_segment(const cv::Point2d& p, const cv::Point2d& a, const
 void far_parallax_residuals(const DynamicFilterInput& in, const DynamicFilterOptions& opt,
                             const std::vector<bool>& valid,
                             const std::vector<cv::Point2f>& pts_prev, const cv::Matx33d& R,
-                            const cv::Vec3d& t, std::vector<double>& far_residual,
-                            std::vector<cv::Point2f>& departure) {
+                            const cv::Vec3d& t, std::vector<double>& far_residual) {
   const Mat3 Kinv = in.K.inverse();
   const double fx = in.K(0, 0), fy = in.K(1, 1), cx = in.K(0, 2), cy = in.K(1, 2);
   const Image* depth = in.cur_depth && !in.cur_depth->empty() && in.cur_gray &&
@@ -334,7 +331,7 @@ void far_parallax_residuals(const DynamicFilterInput& in, const DynamicFilterOpt
     if (!far_end || !near_end) continue;
     const cv::Point2d p(pts_prev[i].x, pts_prev[i].y);
     cv::Point2d off = p - closest_on_segment(p, *far_end, *near_end);
-    // Or nearer than the sensor measures: from far_parallax_near_m to the camera.
+    // Or nearer than the sensor measures: from far_parallax_near_m to 5% of it (the camera).
     const double near_m = std::min(opt.far_parallax_near_m, nearest);
     const auto too_near = seen_at(near_m), nearest_end = seen_at(0.05 * near_m);
     if (too_near && nearest_end) {
@@ -342,10 +339,11 @@ void far_parallax_residuals(const DynamicFilterInput& in, const DynamicFilterOpt
       if (std::hypot(o2.x, o2.y) < std::hypot(off.x, off.y)) off = o2;
     }
     far_residual[i] = std::hypot(off.x, off.y);
-    departure[i] = cv::Point2f(static_cast<float>(off.x), static_cast<float>(off.y));
   }
 }
 
+// Step 7 of classify_features (DynamicFilterOptions::coherent_neighbours): `departure[i]` is
+// where the flow put feature i in the previous frame minus where the ego-motion puts it.
 void demote_incoherent_flow(const std::vector<cv::Point2f>& pts_cur,
                             const std::vector<cv::Point2f>& departure,
                             const DynamicFilterOptions& opt, DynamicFilterResult& out) {
@@ -940,7 +938,7 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
           out.geometry_valid = true;
         }
         if (opt.far_parallax && in.depth_range_m > 0.0)
-          far_parallax_residuals(in, opt, valid, pts_prev, R, t, far_residual, departure);
+          far_parallax_residuals(in, opt, valid, pts_prev, R, t, far_residual);
         for (std::size_t i = 0; i < n; ++i) {
           if (!valid[i] || in.depth_m[i] <= 0) continue;
           const Vec3 X = in.depth_m[i] * (Kinv * Vec3(in.points[i].x(), in.points[i].y(), 1.0));
