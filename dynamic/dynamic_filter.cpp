@@ -342,6 +342,72 @@ void far_parallax_residuals(const DynamicFilterInput& in, const DynamicFilterOpt
   }
 }
 
+// DynamicFilterOptions::trail: each feature with a departure carries on the trail of the
+// previous frame's feature its flow starts at. Returns, per feature, whether its summed
+// departure says it moved.
+std::vector<bool> follow_trail(const DynamicFilterInput& in, const DynamicFilterOptions& opt,
+                               const std::vector<cv::Point2f>& pts_prev,
+                               const std::vector<double>& residual3d,
+                               const std::vector<cv::Point2f>& departure, double thr3d,
+                               ResidualTrail& trail) {
+  const std::size_t n = in.points.size();
+  trail.points = in.points;
+  trail.departure.assign(n, Vec2::Zero());
+  trail.weight.assign(n, 0.0);
+  trail.weight2.assign(n, 0.0);
+  std::vector<bool> moved(n, false);
+  const ResidualTrail* prev = in.prev_trail;
+  const bool linked = prev && prev->departure.size() == prev->points.size() &&
+                      prev->weight.size() == prev->points.size() &&
+                      prev->weight2.size() == prev->points.size();
+  const double cell = std::max(opt.trail_link_px, 0.5);
+  std::unordered_map<std::int64_t, std::vector<std::size_t>> grid;
+  const auto key = [](std::int64_t cx, std::int64_t cy) { return (cx << 32) ^ (cy & 0xffffffff); };
+  if (linked)
+    for (std::size_t j = 0; j < prev->points.size(); ++j)
+      if (prev->weight[j] > 0.0)
+        grid[key(static_cast<std::int64_t>(std::floor(prev->points[j].x() / cell)),
+                 static_cast<std::int64_t>(std::floor(prev->points[j].y() / cell)))]
+            .push_back(j);
+  const double r2 = opt.trail_link_px * opt.trail_link_px;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (residual3d[i] < 0) continue;
+    const Vec2 d(departure[i].x, departure[i].y);
+    double w = 1.0, w2 = 1.0;
+    Vec2 sum = d;
+    if (!grid.empty()) {
+      const auto cx = static_cast<std::int64_t>(std::floor(pts_prev[i].x / cell));
+      const auto cy = static_cast<std::int64_t>(std::floor(pts_prev[i].y / cell));
+      double best = r2;
+      std::optional<std::size_t> from;
+      for (std::int64_t dy = -1; dy <= 1; ++dy)
+        for (std::int64_t dx = -1; dx <= 1; ++dx) {
+          const auto it = grid.find(key(cx + dx, cy + dy));
+          if (it == grid.end()) continue;
+          for (std::size_t j : it->second) {
+            const double ex = prev->points[j].x() - pts_prev[i].x;
+            const double ey = prev->points[j].y() - pts_prev[i].y;
+            if (ex * ex + ey * ey <= best) {
+              best = ex * ex + ey * ey;
+              from = j;
+            }
+          }
+        }
+      if (from) {
+        const double a = opt.trail_decay;
+        sum += a * prev->departure[*from];
+        w += a * prev->weight[*from];
+        w2 += a * a * prev->weight2[*from];
+      }
+    }
+    trail.departure[i] = sum;
+    trail.weight[i] = w;
+    trail.weight2[i] = w2;
+    moved[i] = w >= opt.trail_min_weight && sum.norm() > opt.trail_k * thr3d * std::sqrt(w2);
+  }
+  return moved;
+}
+
 // Step 7 of classify_features (DynamicFilterOptions::coherent_neighbours): `departure[i]` is
 // where the flow put feature i in the previous frame minus where the ego-motion puts it.
 void demote_incoherent_flow(const std::vector<cv::Point2f>& pts_cur,
@@ -1066,6 +1132,9 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
   out.outside_threshold_px = have_3d ? thr3d : thr2d;
   std::vector<double> thr_out(n, thr2d);
   std::vector<double> thr_in(n, out.degenerate_motion ? thr2d : opt.epipolar_threshold_px);
+  std::vector<bool> trail_moved(n, false);
+  if (opt.trail && have_3d)
+    trail_moved = follow_trail(in, opt, pts_prev, residual3d, departure, thr3d, out.trail);
   for (std::size_t i = 0; i < n; ++i) {
     if (residual3d[i] >= 0) {
       score[i] = residual3d[i];
@@ -1204,6 +1273,14 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
       }
     }
     if (out.labels[i] == FeatureLabel::kStatic) out.reasons[i] = LabelReason::kStaticInBox;
+  }
+  // Outside boxes, found static this frame, moved over its track.
+  for (std::size_t i = 0; i < n; ++i) {
+    if (trail_moved[i] && out.labels[i] == FeatureLabel::kStatic &&
+        out.reasons[i] == LabelReason::kStaticGeometry) {
+      out.labels[i] = FeatureLabel::kDynamic;
+      out.reasons[i] = LabelReason::kLongBaseline;
+    }
   }
   // 6. Flow that a second start at the ego-motion's prediction explains as well: the patch's
   // flow is ambiguous (a dim, noise-dominated surface whose coarse pyramid levels hold no

@@ -135,6 +135,7 @@ DynamicEvalResult evaluate_dynamic_filter(const DynamicEvalScene& scene,
   // The last judged frame's pyramid, the next one's previous (as the System keeps it); the
   // filter checks it was built from the image it is given as previous and rebuilds otherwise.
   dynamic::FlowPyramid last_pyramid;
+  dynamic::ResidualTrail last_trail;  // the last judged frame's, as the System keeps it
   for (std::size_t k = 0; k < scene.frames.size(); ++k) {
     const DynamicEvalFrame& f = scene.frames[k];
     dynamic::DynamicFilterInput in;
@@ -201,11 +202,14 @@ DynamicEvalResult evaluate_dynamic_filter(const DynamicEvalScene& scene,
       dynamic::FlowPyramid cur_pyramid;
       in.prev_pyramid = &last_pyramid;
       in.cur_pyramid_out = &cur_pyramid;
+      in.prev_trail = options.gap <= 1 ? &last_trail : nullptr;
       r = dynamic::classify_features(in, options.filter);
       if (options.park_vehicles) parked.observe(r);
       last_pyramid = std::move(cur_pyramid);
+      last_trail = r.trail;
       in.prev_pyramid = nullptr;
       in.cur_pyramid_out = nullptr;
+      in.prev_trail = nullptr;
       if (options.long_gap > 1 && k > 1) {
         dynamic::DynamicFilterInput far = in;
         set_prev(far, options.long_gap);

@@ -199,6 +199,7 @@ struct System::Impl {
   std::unordered_map<mapping::KeyframeId, bool> restart_keyframes;
   Image prev_gray;
   dynamic::FlowPyramid prev_pyramid;  // prev_gray's, kept from the filter's last call
+  dynamic::ResidualTrail prev_trail;  // the filter's last call's (DynamicFilterOptions::trail)
   Image prev_depth;  // for the filter's depth-change test (a mover walking at the camera)
   double prev_depth_scale = 5000.0;
   Timestamp prev_t = 0;
@@ -817,6 +818,7 @@ struct System::Impl {
       in.K = calib.camera.K();
       in.prev_pyramid = &prev_pyramid;
       in.cur_pyramid_out = &cur_pyramid;
+      in.prev_trail = &prev_trail;
       {
         std::lock_guard<std::mutex> lock(imu_mutex);
         if (inertial) in.R_cur_prev = gyro_rotation(imu, prev_t, frame.t, calib.T_body_camera);
@@ -829,6 +831,7 @@ struct System::Impl {
         in.prior_rotation_sigma_rad = prior->rotation_sigma;
       }
       r = dynamic::classify_features(in, options.dynamic);
+      prev_trail = std::move(r.trail);
       if (options.park_vehicles) parked_boxes.observe(r);
       for (std::size_t i = 0; i < keep.size(); ++i) {
         keep[i] = r.labels[i] != dynamic::FeatureLabel::kDynamic;
@@ -836,6 +839,7 @@ struct System::Impl {
       report.dynamic_features = static_cast<int>(r.count(dynamic::FeatureLabel::kDynamic));
     } else {
       r.labels.assign(pts.size(), dynamic::FeatureLabel::kStatic);
+      prev_trail = {};
     }
     stats.record("dynamic_filter", ms_since(t0));
     {
