@@ -736,18 +736,23 @@ TEST(DynamicFilter, DepthChangeCatchesAMoverComingStraightAtTheCamera) {
   EXPECT_GE(with.kept, 97.0);
 }
 
+// Frame k of a camera sliding 1 cm a frame past the wall and the box while a mover at 3 m
+// drifts 11 mm a frame across the epipolar lines (1.9 px between consecutive frames).
+cv::Mat slow_mover_frame(int k, cv::Mat* ids) {
+  static const cv::Mat wall = photo("000004.jpg"), box = photo("horses.jpg"),
+                       mover = photo("person.jpg");
+  std::vector<Plane> planes = {{wall, 5.0, -6, 6, -4, 4},
+                               {box, 2.0, -1.2, -0.4, -0.2, 0.6},
+                               {mover, 3.0, 0.3, 0.8, -0.5 - 0.011 * k, 0.2 - 0.011 * k}};
+  return render(planes, cv::Vec3d(0.01 * k, 0, 0), ids);
+}
+
 TEST(DynamicFilter, SlowMoverCaughtOverSeveralFrames) {
   // The camera slides 1 cm a frame, a mover at 3 m drifts 11 mm a frame across the epipolar
   // lines: 1.9 px between consecutive frames (under the noise floor), 10 px over five. (Kept
   // small: a mover covering a large part of the view lets PnP explain wall and mover by one
   // wrong motion and the box as the outlier.)
-  const cv::Mat wall = photo("000004.jpg"), box = photo("horses.jpg"), mover = photo("person.jpg");
-  const auto frame = [&](int k, cv::Mat* ids) {
-    std::vector<Plane> planes = {{wall, 5.0, -6, 6, -4, 4},
-                                 {box, 2.0, -1.2, -0.4, -0.2, 0.6},
-                                 {mover, 3.0, 0.3, 0.8, -0.5 - 0.011 * k, 0.2 - 0.011 * k}};
-    return render(planes, cv::Vec3d(0.01 * k, 0, 0), ids);
-  };
+  const auto frame = slow_mover_frame;
   cv::Mat ids;
   const cv::Mat im0 = frame(0, nullptr), im4 = frame(4, nullptr), im5 = frame(5, &ids);
   const Image far = to_image(im0), prev = to_image(im4), cur = to_image(im5);
@@ -785,13 +790,7 @@ TEST(DynamicFilter, SlowMoverCaughtOverSeveralFrames) {
 // departures from the ego-motion add up along its features' tracks (ResidualTrail), a static
 // point's do not.
 TEST(DynamicFilter, SlowMoverAddsUpAlongItsTrail) {
-  const cv::Mat wall = photo("000004.jpg"), box = photo("horses.jpg"), mover = photo("person.jpg");
-  const auto frame = [&](int k, cv::Mat* ids) {
-    std::vector<Plane> planes = {{wall, 5.0, -6, 6, -4, 4},
-                                 {box, 2.0, -1.2, -0.4, -0.2, 0.6},
-                                 {mover, 3.0, 0.3, 0.8, -0.5 - 0.011 * k, 0.2 - 0.011 * k}};
-    return render(planes, cv::Vec3d(0.01 * k, 0, 0), ids);
-  };
+  const auto frame = slow_mover_frame;
   const double plane_z[3] = {5.0, 2.0, 3.0};
   const auto run = [&](bool trail_on) {
     DynamicFilterOptions geo;
