@@ -342,6 +342,36 @@ void far_parallax_residuals(const DynamicFilterInput& in, const DynamicFilterOpt
   }
 }
 
+// Points in square buckets of one radius: a point's neighbours within the radius lie in its own
+// bucket and the 8 around it.
+class PointBuckets {
+ public:
+  explicit PointBuckets(double cell) : cell_(cell) {}
+  void add(double x, double y, std::size_t id) { grid_[key(bin(x), bin(y))].push_back(id); }
+  bool empty() const { return grid_.empty(); }
+  // visit(id) for the points of the 9 buckets around (x, y), row by row, each bucket in the
+  // order its points were added, until visit returns false.
+  template <typename Visit>
+  void around(double x, double y, Visit visit) const {
+    const std::int64_t cx = bin(x), cy = bin(y);
+    for (std::int64_t dy = -1; dy <= 1; ++dy)
+      for (std::int64_t dx = -1; dx <= 1; ++dx) {
+        const auto it = grid_.find(key(cx + dx, cy + dy));
+        if (it == grid_.end()) continue;
+        for (std::size_t id : it->second)
+          if (!visit(id)) return;
+      }
+  }
+
+ private:
+  std::int64_t bin(double v) const { return static_cast<std::int64_t>(std::floor(v / cell_)); }
+  static std::int64_t key(std::int64_t cx, std::int64_t cy) {
+    return (cx << 32) ^ (cy & 0xffffffff);
+  }
+  double cell_;
+  std::unordered_map<std::int64_t, std::vector<std::size_t>> grid_;
+};
+
 // DynamicFilterOptions::trail: each feature with a departure carries on the trail of the
 // previous frame's feature its flow starts at. Returns, per feature, whether its summed
 // departure says it moved.
@@ -360,15 +390,10 @@ std::vector<bool> follow_trail(const DynamicFilterInput& in, const DynamicFilter
   const bool linked = prev && prev->departure.size() == prev->points.size() &&
                       prev->weight.size() == prev->points.size() &&
                       prev->weight2.size() == prev->points.size();
-  const double cell = std::max(opt.trail_link_px, 0.5);
-  std::unordered_map<std::int64_t, std::vector<std::size_t>> grid;
-  const auto key = [](std::int64_t cx, std::int64_t cy) { return (cx << 32) ^ (cy & 0xffffffff); };
+  PointBuckets grid(std::max(opt.trail_link_px, 0.5));
   if (linked)
     for (std::size_t j = 0; j < prev->points.size(); ++j)
-      if (prev->weight[j] > 0.0)
-        grid[key(static_cast<std::int64_t>(std::floor(prev->points[j].x() / cell)),
-                 static_cast<std::int64_t>(std::floor(prev->points[j].y() / cell)))]
-            .push_back(j);
+      if (prev->weight[j] > 0.0) grid.add(prev->points[j].x(), prev->points[j].y(), j);
   const double r2 = opt.trail_link_px * opt.trail_link_px;
   for (std::size_t i = 0; i < n; ++i) {
     if (residual3d[i] < 0) continue;
@@ -376,23 +401,17 @@ std::vector<bool> follow_trail(const DynamicFilterInput& in, const DynamicFilter
     double w = 1.0, w2 = 1.0;
     Vec2 sum = d;
     if (!grid.empty()) {
-      const auto cx = static_cast<std::int64_t>(std::floor(pts_prev[i].x / cell));
-      const auto cy = static_cast<std::int64_t>(std::floor(pts_prev[i].y / cell));
       double best = r2;
       std::optional<std::size_t> from;
-      for (std::int64_t dy = -1; dy <= 1; ++dy)
-        for (std::int64_t dx = -1; dx <= 1; ++dx) {
-          const auto it = grid.find(key(cx + dx, cy + dy));
-          if (it == grid.end()) continue;
-          for (std::size_t j : it->second) {
-            const double ex = prev->points[j].x() - pts_prev[i].x;
-            const double ey = prev->points[j].y() - pts_prev[i].y;
-            if (ex * ex + ey * ey <= best) {
-              best = ex * ex + ey * ey;
-              from = j;
-            }
-          }
+      grid.around(pts_prev[i].x, pts_prev[i].y, [&](std::size_t j) {
+        const double ex = prev->points[j].x() - pts_prev[i].x;
+        const double ey = prev->points[j].y() - pts_prev[i].y;
+        if (ex * ex + ey * ey <= best) {
+          best = ex * ex + ey * ey;
+          from = j;
         }
+        return true;
+      });
       if (from) {
         const double a = opt.trail_decay;
         sum += a * prev->departure[*from];
@@ -424,38 +443,22 @@ void demote_incoherent_flow(const std::vector<cv::Point2f>& pts_cur,
     if (out.reasons[i] == LabelReason::kFlowResidual) flagged.push_back(i);
   }
   if (flagged.empty()) return;
-  // Buckets of one radius: a feature's neighbours lie in its own and the 8 around it.
-  const double cell = std::max(opt.coherence_radius_px, 1.0);
-  std::unordered_map<std::int64_t, std::vector<std::size_t>> grid;
-  const auto cell_of = [&](const cv::Point2f& p) {
-    return std::pair<std::int64_t, std::int64_t>(static_cast<std::int64_t>(std::floor(p.x / cell)),
-                                                 static_cast<std::int64_t>(std::floor(p.y / cell)));
-  };
-  const auto key = [](std::int64_t cx, std::int64_t cy) { return (cx << 32) ^ (cy & 0xffffffff); };
-  for (std::size_t i : witnesses) {
-    const auto [cx, cy] = cell_of(pts_cur[i]);
-    grid[key(cx, cy)].push_back(i);
-  }
+  PointBuckets grid(std::max(opt.coherence_radius_px, 1.0));
+  for (std::size_t i : witnesses) grid.add(pts_cur[i].x, pts_cur[i].y, i);
   const double r2 = opt.coherence_radius_px * opt.coherence_radius_px;
   std::vector<std::size_t> demote;
   for (std::size_t i : flagged) {
     const cv::Point2f di = departure[i];
     const double tol = std::max(2.0, 0.3 * std::hypot(di.x, di.y));
-    const auto [cx, cy] = cell_of(pts_cur[i]);
     int agreeing = 0;
-    for (std::int64_t dy = -1; dy <= 1 && agreeing < opt.coherent_neighbours; ++dy) {
-      for (std::int64_t dx = -1; dx <= 1 && agreeing < opt.coherent_neighbours; ++dx) {
-        const auto it = grid.find(key(cx + dx, cy + dy));
-        if (it == grid.end()) continue;
-        for (std::size_t j : it->second) {
-          if (j == i) continue;
-          const cv::Point2f d = pts_cur[j] - pts_cur[i];
-          if (double(d.x) * d.x + double(d.y) * d.y > r2) continue;
-          const cv::Point2f dd = departure[j] - di;
-          if (std::hypot(dd.x, dd.y) <= tol && ++agreeing >= opt.coherent_neighbours) break;
-        }
-      }
-    }
+    if (opt.coherent_neighbours > 0)
+      grid.around(pts_cur[i].x, pts_cur[i].y, [&](std::size_t j) {
+        if (j == i) return true;
+        const cv::Point2f d = pts_cur[j] - pts_cur[i];
+        if (double(d.x) * d.x + double(d.y) * d.y > r2) return true;
+        const cv::Point2f dd = departure[j] - di;
+        return !(std::hypot(dd.x, dd.y) <= tol && ++agreeing >= opt.coherent_neighbours);
+      });
     if (agreeing < opt.coherent_neighbours) demote.push_back(i);
   }
   // Judged against the witnesses as they were, so the order of the features does not matter.
