@@ -133,11 +133,14 @@ void on_terminate() {
   std::abort();
 }
 
+#if !defined(__SANITIZE_ADDRESS__) && !defined(__SANITIZE_THREAD__)
+// Installed only without a sanitizer (main), whose own handler reports the fault with a stack.
 void on_signal(int sig) {
   write_current(sig == SIGSEGV ? "SIGSEGV" : sig == SIGILL ? "SIGILL (trap)" : "signal");
   std::signal(sig, SIG_DFL);
   std::raise(sig);
 }
+#endif
 
 void run(const Bytes& input) {
   g_current = &input;

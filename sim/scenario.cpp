@@ -64,6 +64,16 @@ class Reader {
     if (!(v > 0.0)) fail(map[key], where + key, "must be > 0");
     return v;
   }
+  // A whole number in [lo, hi]: a double outside int's range would make the cast undefined.
+  int whole(const YAML::Node& map, const char* key, int def, int lo, int hi,
+            const std::string& where) const {
+    const double v = get(map, key, def, where);
+    if (v != std::floor(v) || v < lo || v > hi) {
+      fail(map[key], where + key,
+           "must be a whole number in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
+    }
+    return static_cast<int>(v);
+  }
   double fraction(const YAML::Node& map, const char* key, double def,
                   const std::string& where) const {
     const double v = get(map, key, def, where);
@@ -195,8 +205,8 @@ Scenario parse_scenario_yaml(const std::string& text, const std::string& name,
   const YAML::Node cam = sub(root, "camera");
   r.allow(cam, "camera", {"width", "height", "fx", "fy", "cx", "cy", "fps"});
   PinholeCamera& c = s.calib.camera;
-  c.width = static_cast<int>(r.positive(cam, "width", 640, "camera."));
-  c.height = static_cast<int>(r.positive(cam, "height", 480, "camera."));
+  c.width = r.whole(cam, "width", 640, 1, 8192, "camera.");
+  c.height = r.whole(cam, "height", 480, 1, 8192, "camera.");
   c.fx = r.positive(cam, "fx", 525.0, "camera.");
   c.fy = r.positive(cam, "fy", 525.0, "camera.");
   c.cx = r.get(cam, "cx", (c.width - 1) / 2.0, "camera.");
@@ -240,7 +250,7 @@ Scenario parse_scenario_yaml(const std::string& text, const std::string& name,
   // The sequence's calibration says the sensor's range, so the maps trust its depth as far as
   // it reaches (calib.yaml: depth_max).
   s.calib.depth_max = ss.depth_max;
-  ss.motion_blur = static_cast<int>(r.get(sen, "motion_blur", 0, "sensor."));
+  ss.motion_blur = r.whole(sen, "motion_blur", 0, 0, 64, "sensor.");
   ss.exposure_time = r.get(sen, "exposure_time", ss.exposure_time, "sensor.");
   ss.jitter = r.get(sen, "jitter", 0.0, "sensor.");
   ss.drop_rate = r.fraction(sen, "drop_rate", 0.0, "sensor.");
@@ -346,8 +356,7 @@ Scenario parse_scenario_yaml(const std::string& text, const std::string& name,
                                         : mv.type == "bird"    ? "bird"
                                                                : "chair";
       mv.label = r.text(m, "label", default_label, w);
-      mv.sprite = static_cast<int>(r.get(m, "sprite", 0, w));
-      if (mv.sprite < 0) r.fail(m["sprite"], w + "sprite", "must be >= 0");
+      mv.sprite = r.whole(m, "sprite", 0, 0, 1000, w);
       mv.photo = r.vehicle_photo(m, w);
       if (!mv.photo.empty() && mv.type != "vehicle")
         r.fail(m["photo"], w + "photo", "only a vehicle carries a photo");
@@ -399,7 +408,7 @@ Scenario parse_scenario_yaml(const std::string& text, const std::string& name,
   if (ts.kind != "handheld" && ts.kind != "ugv" && ts.kind != "uav")
     r.fail(tr["kind"], "trajectory.kind", "handheld, ugv or uav");
   ts.segment_time = r.positive(tr, "segment_time", 1.0, "trajectory.");
-  ts.laps = static_cast<int>(r.positive(tr, "laps", 1, "trajectory."));
+  ts.laps = r.whole(tr, "laps", 1, 1, 1000, "trajectory.");
   const YAML::Node wp = tr["waypoints"];
   if (!wp.IsSequence() || wp.size() == 0)
     r.fail(wp.IsDefined() ? wp : tr, "trajectory.waypoints",

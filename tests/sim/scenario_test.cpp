@@ -85,6 +85,17 @@ TEST(Scenario, BadInputNamesFileLineAndField) {
                 .trajectory.wobble_fade_full,
             1.3);
   EXPECT_THROW(load_scenario("no-such-scenario"), Error);
+  // Counts are whole numbers in range: 1e12 pixels wide once overflowed the int it is cast to.
+  for (const char* count : {"camera: {width: 1e12}\n", "camera: {height: 0}\n",
+                            "camera: {width: 640.5}\n", "sensor: {motion_blur: -2}\n"}) {
+    EXPECT_NE(error_of(base + count).find("must be a whole number in"), std::string::npos)
+        << error_of(base + count);
+  }
+  EXPECT_NE(error_of(base + "camera: {width: 1e12}\n").find("bad.yaml:3: field 'camera.width'"),
+            std::string::npos);
+  EXPECT_NE(error_of(base + "movers:\n  - {type: person, sprite: -1, path: [[0, 0]]}\n")
+                .find("field 'movers[0].sprite'"),
+            std::string::npos);
   // A vehicle photo must be one of the cut-outs, and only vehicles carry one.
   const std::string bad_photo =
       error_of(base + "movers:\n  - {type: vehicle, photo: car-purple, path: [[0, 0]]}\n");
