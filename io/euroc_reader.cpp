@@ -16,17 +16,18 @@ namespace fs = std::filesystem;
 
 namespace {
 
+constexpr int kMaxImageSide = 65536;
+
 PinholeCamera kalibr_camera(const YamlFile& y, const YAML::Node& n, const std::string& f) {
   PinholeCamera c;
   const auto in = y.numbers(y.require(n, "intrinsics", f + ".intrinsics"), f + ".intrinsics");
   if (in.size() != 4) y.fail(n["intrinsics"], f + ".intrinsics", "expected [fu, fv, pu, pv]");
   c.fx = in[0], c.fy = in[1], c.cx = in[2], c.cy = in[3];
-  const auto res = y.numbers(y.require(n, "resolution", f + ".resolution"), f + ".resolution");
-  if (res.size() != 2 || res[0] < 1 || res[1] < 1) {
-    y.fail(n["resolution"], f + ".resolution", "expected [width, height]");
-  }
-  c.width = static_cast<int>(res[0]);
-  c.height = static_cast<int>(res[1]);
+  const YAML::Node res_node = y.require(n, "resolution", f + ".resolution");
+  const auto res = y.numbers(res_node, f + ".resolution");
+  if (res.size() != 2) y.fail(res_node, f + ".resolution", "expected [width, height]");
+  c.width = y.whole(res[0], res_node, f + ".resolution", 1, kMaxImageSide);
+  c.height = y.whole(res[1], res_node, f + ".resolution", 1, kMaxImageSide);
   if (n["camera_model"] && y.text(n["camera_model"], f + ".camera_model") != "pinhole") {
     y.fail(n["camera_model"], f + ".camera_model", "only the pinhole camera model is supported");
   }

@@ -39,11 +39,12 @@ std::vector<ImuSample> merge_accel_gyro(const std::vector<StampedVector>& accel,
 
 namespace {
 
+constexpr int kMaxImageSide = 65536;
+
 PinholeCamera read_camera(const YamlFile& y, const YAML::Node& n, const std::string& f) {
   PinholeCamera c;
-  c.width = static_cast<int>(y.number(y.require(n, "width", f + ".width"), f + ".width"));
-  c.height = static_cast<int>(y.number(y.require(n, "height", f + ".height"), f + ".height"));
-  if (c.width < 1 || c.height < 1) y.fail(n, f, "image size must be positive");
+  c.width = y.whole(y.require(n, "width", f + ".width"), f + ".width", 1, kMaxImageSide);
+  c.height = y.whole(y.require(n, "height", f + ".height"), f + ".height", 1, kMaxImageSide);
   const auto in = y.numbers(y.require(n, "intrinsics", f + ".intrinsics"), f + ".intrinsics");
   if (in.size() != 4) y.fail(n["intrinsics"], f + ".intrinsics", "expected [fx, fy, cx, cy]");
   c.fx = in[0], c.fy = in[1], c.cx = in[2], c.cy = in[3];

@@ -62,6 +62,19 @@ double YamlFile::number(const YAML::Node& node, const std::string& field) const 
   return v;
 }
 
+int YamlFile::whole(double v, const YAML::Node& node, const std::string& field, int lo,
+                    int hi) const {
+  if (v != std::floor(v) || v < lo || v > hi) {
+    fail(node, field,
+         "must be a whole number in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
+  }
+  return static_cast<int>(v);
+}
+
+int YamlFile::whole(const YAML::Node& node, const std::string& field, int lo, int hi) const {
+  return whole(number(node, field), node, field, lo, hi);
+}
+
 std::string YamlFile::text(const YAML::Node& node, const std::string& field) const {
   if (!node.IsScalar()) fail(node, field, "expected a string");
   return node.Scalar();

@@ -26,6 +26,10 @@ class YamlFile {
   YAML::Node require(const YAML::Node& node, const std::string& key,
                      const std::string& field) const;
   double number(const YAML::Node& node, const std::string& field) const;
+  // A whole number in [lo, hi] (an image size: a double beyond int's range makes the cast
+  // undefined), read from `node`, or `v` already read from it.
+  int whole(const YAML::Node& node, const std::string& field, int lo, int hi) const;
+  int whole(double v, const YAML::Node& node, const std::string& field, int lo, int hi) const;
   std::string text(const YAML::Node& node, const std::string& field) const;
   // A list of numbers, or an OpenCV matrix {rows, cols, data: [...]}.
   std::vector<double> numbers(const YAML::Node& node, const std::string& field) const;

@@ -5,6 +5,7 @@
 #include "io/euroc_reader.hpp"
 #include "io/kestrel_sequence.hpp"
 #include "io/tum_rgbd_reader.hpp"
+#include "io/yaml_fields.hpp"
 #include "tests/io/io_test_util.hpp"
 #include "tests/test_paths.hpp"
 
@@ -135,6 +136,17 @@ TEST(BadInput, ObjectsJsonWithANumberOutOfRange) {
                            "objects.json");
       },
       {"objects.json", "JSON"});
+}
+
+// Image sizes in calibration files are whole numbers in range: a width of 1e12 once reached an
+// int cast, which is undefined.
+TEST(BadInput, ImageSizeInAYamlFileIsAWholeNumberInRange) {
+  const YamlFile y = YamlFile::parse("w: 640\nbig: 1e12\nhalf: 640.5\nzero: 0\n", "cam.yaml");
+  EXPECT_EQ(y.whole(y.root()["w"], "w", 1, 65536), 640);
+  for (const char* key : {"big", "half", "zero"}) {
+    test::expect_error([&] { y.whole(y.root()[key], key, 1, 65536); },
+                       {"cam.yaml:", key, "whole number in [1, 65536]"});
+  }
 }
 
 }  // namespace
