@@ -292,19 +292,14 @@ cv::Point2d closest_on_segment(const cv::Point2d& p, const cv::Point2d& a, const
 // DynamicFilterOptions::far_parallax: for each tracked feature without depth, the distance of
 // where the flow puts it in the previous frame to where a static point on its ray could have
 // been, between the nearest depth it may have (the sensor's range, or the nearest reading
-// around it: an edge's hole) and infinity. X_prev = R X_cur + t.
+// around it: an edge's hole) and infinity. X_prev = R X_cur + t. `depth`: the current depth
+// image on the grey image's pixels, or null.
 void far_parallax_residuals(const DynamicFilterInput& in, const DynamicFilterOptions& opt,
-                            const std::vector<bool>& valid,
+                            const Image* depth, const std::vector<bool>& valid,
                             const std::vector<cv::Point2f>& pts_prev, const cv::Matx33d& R,
                             const cv::Vec3d& t, std::vector<double>& far_residual) {
   const Mat3 Kinv = in.K.inverse();
   const double fx = in.K(0, 0), fy = in.K(1, 1), cx = in.K(0, 2), cy = in.K(1, 2);
-  const Image* depth = in.cur_depth && !in.cur_depth->empty() && in.cur_gray &&
-                               in.cur_depth->width == in.cur_gray->width &&
-                               in.cur_depth->height == in.cur_gray->height &&
-                               in.cur_depth->type == PixelType::kU16
-                           ? in.cur_depth
-                           : nullptr;
   const int w = std::max(0, opt.far_parallax_window_px);
   for (std::size_t i = 0; i < in.points.size(); ++i) {
     if (!valid[i] || (in.depth_m.size() == in.points.size() && in.depth_m[i] > 0)) continue;
@@ -1007,7 +1002,8 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
           out.geometry_valid = true;
         }
         if (opt.far_parallax && in.depth_range_m > 0.0)
-          far_parallax_residuals(in, opt, valid, pts_prev, R, t, far_residual);
+          far_parallax_residuals(in, opt, depth_image ? in.cur_depth : nullptr, valid, pts_prev, R,
+                                 t, far_residual);
         for (std::size_t i = 0; i < n; ++i) {
           if (!valid[i] || in.depth_m[i] <= 0) continue;
           const Vec3 X = in.depth_m[i] * (Kinv * Vec3(in.points[i].x(), in.points[i].y(), 1.0));
