@@ -639,6 +639,8 @@ const char* to_string(LabelReason r) {
       return "ambiguous-flow";
     case LabelReason::kFarParallax:
       return "far-parallax";
+    case LabelReason::kRimOnObject:
+      return "rim-on-object";
   }
   return "?";
 }
@@ -715,6 +717,7 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
   // The detected object's own depth: the median depth of the box's core (its central part,
   // where a person's torso or a car's body is), and which features lie at that depth.
   std::vector<bool> foreground(n, false);
+  std::vector<bool> on_rim(n, false);            // foreground by its pixels' depth, not its own
   std::vector<bool> far_box_no_depth(n, false);  // DynamicFilterOptions::far_box_no_depth_dynamic
   // 1: behind the object with its window on the object's outline; 2: the same without depth.
   std::vector<std::uint8_t> outline(n, 0);
@@ -761,6 +764,25 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
             std::find(boxes_of[i].begin(), boxes_of[i].end(), static_cast<int>(b)) !=
                 boxes_of[i].end()) {
           foreground[i] = true;
+        }
+      }
+      if (depth_image && opt.silhouette_object_pixels > 0) {
+        for (std::size_t i = 0; i < n; ++i) {
+          if (in.depth_m[i] > 0 || foreground[i] ||
+              std::find(boxes_of[i].begin(), boxes_of[i].end(), static_cast<int>(b)) ==
+                  boxes_of[i].end()) {
+            continue;
+          }
+          const int u0 = static_cast<int>(std::lround(in.points[i].x()));
+          const int v0 = static_cast<int>(std::lround(in.points[i].y()));
+          int on_object = 0;
+          for (int v = std::max(0, v0 - 1); v <= std::min(in.cur_depth->height - 1, v0 + 1); ++v) {
+            const std::uint16_t* row = in.cur_depth->row<std::uint16_t>(v);
+            for (int u = std::max(0, u0 - 1); u <= std::min(in.cur_depth->width - 1, u0 + 1); ++u) {
+              on_object += row[u] && std::fabs(row[u] / in.depth_scale - d_fg) <= band;
+            }
+          }
+          if (on_object >= opt.silhouette_object_pixels) foreground[i] = on_rim[i] = true;
         }
       }
       if (!depth_image || !opt.outline_by_depth) continue;
@@ -1218,7 +1240,7 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
     }
     if (foreground[i]) {
       out.labels[i] = FeatureLabel::kDynamic;
-      out.reasons[i] = LabelReason::kForegroundInBox;
+      out.reasons[i] = on_rim[i] ? LabelReason::kRimOnObject : LabelReason::kForegroundInBox;
       continue;
     }
     if (far_box_no_depth[i]) {

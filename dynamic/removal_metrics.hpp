@@ -29,7 +29,7 @@ struct RemovalCounts {
   std::size_t dynamic_near_outline_removed = 0;
   // Where the errors come from, by the filter's reason (index: LabelReason).
   static constexpr std::size_t kReasons =
-      static_cast<std::size_t>(LabelReason::kFarParallax) + 1;  // the last reason
+      static_cast<std::size_t>(LabelReason::kRimOnObject) + 1;  // the last reason
   std::array<std::size_t, kReasons> dynamic_missed_by_reason{};
   std::array<std::size_t, kReasons> static_removed_by_reason{};
 

@@ -1078,6 +1078,79 @@ TEST(DynamicFilter, ObjectDepthFromTheCoresPixelsNotItsFeatures) {
   EXPECT_EQ(shares(classify_features(in, opt)).first, sparse_removed);
 }
 
+// A walker standing still against a wall beyond the sensor's range. The sensor reads nothing on
+// every other pixel of the walker's rim, and the tracker gives no depth to a feature straddling
+// a depth step, so the walker's rim features have no depth of their own and pass the epipolar
+// test like the wall seen through the box. The depth pixels around such a feature say it lies
+// on the walker (DynamicFilterOptions::silhouette_object_pixels).
+TEST(DynamicFilter, RimFeatureWithoutDepthIsTheObjectsWhenItsPixelsAre) {
+  Scene s = make_scene({0, 0, 0}, {0, 0, 0});
+  const auto id = [&](int u, int v) {
+    return s.ids.at<uint8_t>(std::clamp(v, 0, 479), std::clamp(u, 0, 639));
+  };
+  // ORB puts corners on a silhouette's pixels; add such corners of the walker's rim.
+  cv::Mat walker = s.ids == 2, inner;
+  cv::erode(walker, inner, cv::Mat());
+  const cv::Mat rim_band = walker & ~inner;
+  std::vector<cv::Point2f> rim_corners;
+  cv::goodFeaturesToTrack(s.cur, rim_corners, 60, 0.005, 5, rim_band);
+  for (const auto& c : rim_corners) s.points.emplace_back(std::round(c.x), std::round(c.y));
+  const Image prev = to_image(s.prev), cur = to_image(s.cur);
+  DynamicFilterInput in = input_for(s, prev, cur);
+  BoxRegion box = mover_box(s);
+  box.x_min -= 12, box.y_min -= 12, box.x_max += 12, box.y_max += 12;
+  in.boxes = {box};
+  Image depth = depth_image_of(s, in.depth_scale);
+  for (int v = 0; v < 480; ++v) {
+    for (int u = 0; u < 640; ++u) {
+      std::uint16_t& z = depth.row<std::uint16_t>(v)[u];
+      if (id(u, v) == 0) z = 0;  // the wall: beyond the range
+      const bool rim = id(u, v) == 2 && (id(u - 1, v) != 2 || id(u + 1, v) != 2 ||
+                                         id(u, v - 1) != 2 || id(u, v + 1) != 2);
+      if (rim && (u + v) % 2 == 0) z = 0;
+    }
+  }
+  in.cur_depth = &depth;
+  std::vector<bool> rim_feature(s.points.size(), false);
+  for (std::size_t i = 0; i < s.points.size(); ++i) {
+    const int u = static_cast<int>(std::lround(s.points[i].x()));
+    const int v = static_cast<int>(std::lround(s.points[i].y()));
+    bool step = false;
+    for (int dv = -1; dv <= 1; ++dv)
+      for (int du = -1; du <= 1; ++du) step |= id(u + du, v + dv) != id(u, v);
+    const std::uint16_t z = depth.row<std::uint16_t>(v)[u];
+    in.depth_m.push_back(step || !z ? 0.0 : z / in.depth_scale);
+    rim_feature[i] = id(u, v) == 2 && in.depth_m.back() == 0.0;
+  }
+  ASSERT_GE(std::count(rim_feature.begin(), rim_feature.end(), true), 5);
+  DynamicFilterOptions opt;
+  ASSERT_GT(opt.silhouette_object_pixels, 0);  // on by default
+  const DynamicFilterResult r = classify_features(in, opt);
+  DynamicFilterOptions off = opt;
+  off.silhouette_object_pixels = 0;
+  const DynamicFilterResult before = classify_features(in, off);
+  int rim = 0, rim_removed = 0, rim_removed_before = 0;
+  for (std::size_t i = 0; i < s.points.size(); ++i) {
+    if (rim_feature[i]) {
+      ++rim;
+      rim_removed += r.labels[i] == FeatureLabel::kDynamic;
+      if (r.labels[i] == FeatureLabel::kDynamic) {
+        EXPECT_STREQ(to_string(r.reasons[i]), "rim-on-object");
+      }
+      rim_removed_before += before.labels[i] == FeatureLabel::kDynamic;
+    } else if (id_at(s, s.points[i]) != 2) {
+      // The wall around the walker, its pixels beyond the range: as before.
+      EXPECT_EQ(r.labels[i], before.labels[i]) << s.points[i].transpose();
+    }
+  }
+  // All but a few at the rectangle's corners, where fewer of the 3x3 pixels are the walker's.
+  EXPECT_GE(rim_removed * 10, rim * 8);
+  EXPECT_LT(rim_removed_before, rim / 2);
+  // The walker's features are removed as well as before and more; the wall's kept as before.
+  EXPECT_GT(score(s, r).removed, score(s, before).removed);
+  EXPECT_EQ(score(s, r).kept, score(s, before).kept);
+}
+
 TEST(DynamicFilter, EmptyInputAndTooFewFeatures) {
   Image a = Image::allocate(64, 48, 1, PixelType::kU8);
   DynamicFilterInput in;
