@@ -282,6 +282,28 @@ std::vector<double> largest_surface(const Image& depth, double scale, const BoxR
   return out;
 }
 
+// Depth pixels within `r` of a feature (a (2r+1)^2 square, clipped to the image): how many read
+// the detected object's depth (within `band` of `d_fg`) and how many lie beyond it.
+struct DepthAround {
+  int on_object = 0;
+  int beyond = 0;
+};
+DepthAround depth_around(const Image& depth, double scale, const Vec2& p, int r, double d_fg,
+                         double band) {
+  DepthAround c;
+  const int u0 = static_cast<int>(std::lround(p.x())), v0 = static_cast<int>(std::lround(p.y()));
+  for (int v = std::max(0, v0 - r); v <= std::min(depth.height - 1, v0 + r); ++v) {
+    const std::uint16_t* row = depth.row<std::uint16_t>(v);
+    for (int u = std::max(0, u0 - r); u <= std::min(depth.width - 1, u0 + r); ++u) {
+      if (!row[u]) continue;
+      const double z = row[u] / scale;
+      c.on_object += std::fabs(z - d_fg) <= band;
+      c.beyond += z > d_fg + band;
+    }
+  }
+  return c;
+}
+
 // The point of the segment a..b nearest p.
 cv::Point2d closest_on_segment(const cv::Point2d& p, const cv::Point2d& a, const cv::Point2d& b) {
   const cv::Point2d ab = b - a;
@@ -773,16 +795,9 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
                   boxes_of[i].end()) {
             continue;
           }
-          const int u0 = static_cast<int>(std::lround(in.points[i].x()));
-          const int v0 = static_cast<int>(std::lround(in.points[i].y()));
-          int on_object = 0;
-          for (int v = std::max(0, v0 - 1); v <= std::min(in.cur_depth->height - 1, v0 + 1); ++v) {
-            const std::uint16_t* row = in.cur_depth->row<std::uint16_t>(v);
-            for (int u = std::max(0, u0 - 1); u <= std::min(in.cur_depth->width - 1, u0 + 1); ++u) {
-              on_object += row[u] && std::fabs(row[u] / in.depth_scale - d_fg) <= band;
-            }
-          }
-          if (on_object >= opt.silhouette_object_pixels) foreground[i] = on_rim[i] = true;
+          const DepthAround c =
+              depth_around(*in.cur_depth, in.depth_scale, in.points[i], 1, d_fg, band);
+          if (c.on_object >= opt.silhouette_object_pixels) foreground[i] = on_rim[i] = true;
         }
       }
       if (!depth_image || !opt.outline_by_depth) continue;
@@ -796,19 +811,9 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
         const bool behind = in.depth_m[i] > d_fg + band;
         const bool no_depth = in.depth_m[i] <= 0;
         if (!behind && !no_depth) continue;
-        const int u0 = static_cast<int>(std::lround(in.points[i].x()));
-        const int v0 = static_cast<int>(std::lround(in.points[i].y()));
-        bool on_object = false, beyond = false;
-        for (int v = std::max(0, v0 - r); v <= std::min(in.cur_depth->height - 1, v0 + r); ++v) {
-          const std::uint16_t* row = in.cur_depth->row<std::uint16_t>(v);
-          for (int u = std::max(0, u0 - r); u <= std::min(in.cur_depth->width - 1, u0 + r); ++u) {
-            if (!row[u]) continue;
-            const double z = row[u] / in.depth_scale;
-            on_object |= std::fabs(z - d_fg) <= band;
-            beyond |= z > d_fg + band;
-          }
-        }
-        if (on_object && beyond) outline[i] = behind ? 1 : 2;
+        const DepthAround c =
+            depth_around(*in.cur_depth, in.depth_scale, in.points[i], r, d_fg, band);
+        if (c.on_object && c.beyond) outline[i] = behind ? 1 : 2;
       }
     }
   }
