@@ -37,8 +37,9 @@ struct Row {
   const char* name;
   int detector;  // index below; -1 none
   dynamic::FilterMode mode;
-  int long_gap = 0;  // multi-frame evidence against frame k - long_gap; 0 off
-  bool park = true;  // vehicles seen still are parked (DynamicEvalOptions::park_vehicles)
+  int long_gap = 0;          // multi-frame evidence against frame k - long_gap; 0 off
+  bool park = true;          // vehicles seen still are parked (DynamicEvalOptions::park_vehicles)
+  bool depth_trail = false;  // DynamicFilterOptions::depth_trail
 };
 
 // kYolo is the model the pipeline runs (detect::kPipelineYoloModel, xl at 320); kYoloV11 the
@@ -64,6 +65,11 @@ const Row kRows[] = {
     // costs.
     {"hybrid+yolo, never parked", kYolo, dynamic::FilterMode::kHybrid, 0, false},
     {"hybrid+oracle, never parked", kOracle, dynamic::FilterMode::kHybrid, 0, false},
+    // Depth departures summed along the trail (off in the System: see DynamicFilterOptions).
+    {"hybrid+yolo, depth trail", kYolo, dynamic::FilterMode::kHybrid, 0, true, true},
+    {"hybrid+oracle, unknown-class mover, depth trail", kOracleUnknown,
+     dynamic::FilterMode::kHybrid, 0, true, true},
+    {"geometry, depth trail", -1, dynamic::FilterMode::kGeometryOnly, 0, true, true},
 };
 
 // The moving mover of a dynamic class that covers the most box area over the sequence.
@@ -172,6 +178,7 @@ nlohmann::json bench_dynamic(const AreaOptions& o) {
       opt.detector = row.detector;
       opt.long_gap = row.long_gap;
       opt.park_vehicles = row.park;
+      opt.filter.depth_trail = row.depth_trail;
       std::size_t on_unknown = 0, unknown_removed = 0;
       opt.on_frame = [&](const pipeline::DynamicEvalFrame& f, const dynamic::DynamicFilterInput& in,
                          const dynamic::DynamicFilterResult& r) {

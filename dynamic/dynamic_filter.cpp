@@ -42,6 +42,27 @@ double median_of(std::vector<double> v) {
   return *mid;
 }
 
+// The median of the depth readings in the 3x3 window at (u, v), in metres, where at least six
+// read and all lie on one surface (spread within 10% of it); -1 elsewhere. The median of nine
+// cuts the sensor's per-pixel noise about threefold.
+double smooth_depth(const Image& depth, double scale, int u, int v) {
+  if (u < 1 || v < 1 || u + 1 >= depth.width || v + 1 >= depth.height) return -1.0;
+  std::array<double, 9> z{};
+  std::size_t k = 0;
+  for (int dv = -1; dv <= 1; ++dv) {
+    const std::uint16_t* row = depth.row<std::uint16_t>(v + dv);
+    for (int du = -1; du <= 1; ++du)
+      if (row[u + du] != 0) z[k++] = row[u + du] / scale;
+  }
+  if (k < 6) return -1.0;
+  const auto end = z.begin() + static_cast<long>(k);
+  const auto mid = z.begin() + static_cast<long>(k / 2);
+  std::nth_element(z.begin(), mid, end);
+  const double med = *mid;
+  const auto [lo, hi] = std::minmax_element(z.begin(), end);
+  return *hi - *lo <= 0.1 * med ? med : -1.0;
+}
+
 // Robust spread: median + k * sigma, sigma from the median absolute deviation.
 double adaptive_threshold(const std::vector<double>& values, double k, double floor_px) {
   if (values.size() < 5) return floor_px;
@@ -389,6 +410,63 @@ class PointBuckets {
   std::unordered_map<std::int64_t, std::vector<std::size_t>> grid_;
 };
 
+// DynamicFilterOptions::depth_trail: turns `dev` (per feature, the previous depth read minus the
+// depth the ego-motion predicts there, metres; NaN unknown) into what the trail sums: less this
+// frame's common offset over `background` (the ego-motion's error along the view), over depth^2
+// (the sensor's noise grows so), averaged with its neighbours' on the same surface. Returns the
+// threshold for one frame's departure, depth_k robust sigmas of the background's, and leaves NaN
+// beyond depth_trail_max_m and above depth_trail_jump thresholds (an occluder passing, not a
+// surface drifting). Too little background: `dev` emptied, nothing to sum.
+double depth_departures(const DynamicFilterInput& in, const DynamicFilterOptions& opt,
+                        const std::vector<std::size_t>& background, std::vector<double>& dev) {
+  const std::size_t n = dev.size();
+  std::vector<double> offsets;
+  for (std::size_t i : background)
+    if (!std::isnan(dev[i])) offsets.push_back(dev[i]);
+  const double offset = offsets.size() >= 5 ? median_of(offsets) : 0.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (std::isnan(dev[i])) continue;
+    const double z = in.depth_m[i];
+    dev[i] = (dev[i] - offset) / (z * z);
+  }
+  const double r = opt.depth_trail_pool_px;
+  if (r > 0) {
+    PointBuckets grid(r);
+    for (std::size_t i = 0; i < n; ++i)
+      if (!std::isnan(dev[i])) grid.add(in.points[i].x(), in.points[i].y(), i);
+    std::vector<double> pooled = dev;
+    for (std::size_t i = 0; i < n; ++i) {
+      if (std::isnan(dev[i])) continue;
+      double sum = 0.0;
+      int count = 0;
+      const double z = in.depth_m[i];
+      grid.around(in.points[i].x(), in.points[i].y(), [&](std::size_t j) {
+        if ((in.points[j] - in.points[i]).squaredNorm() <= r * r &&
+            std::fabs(in.depth_m[j] - z) <= opt.depth_trail_same_surface * z) {
+          sum += dev[j];
+          ++count;
+        }
+        return true;
+      });
+      pooled[i] = sum / count;
+    }
+    dev = std::move(pooled);
+  }
+  std::vector<double> spread;
+  for (std::size_t i : background)
+    if (!std::isnan(dev[i])) spread.push_back(std::fabs(dev[i]));
+  if (spread.size() < 5) {
+    dev.clear();  // too little background to tell noise from motion
+    return 0.0;
+  }
+  const double thr = opt.depth_k * 1.4826 * median_of(spread);
+  for (std::size_t i = 0; i < n; ++i)
+    if (!std::isnan(dev[i]) &&
+        (in.depth_m[i] > opt.depth_trail_max_m || std::fabs(dev[i]) > opt.depth_trail_jump * thr))
+      dev[i] = std::numeric_limits<double>::quiet_NaN();
+  return thr;
+}
+
 // DynamicFilterOptions::trail: each feature with a departure carries on the trail of the
 // previous frame's feature its flow starts at. Returns, per feature, whether its summed
 // departure says it moved.
@@ -396,27 +474,40 @@ std::vector<bool> follow_trail(const DynamicFilterInput& in, const DynamicFilter
                                const std::vector<cv::Point2f>& pts_prev,
                                const std::vector<double>& residual3d,
                                const std::vector<cv::Point2f>& departure, double thr3d,
+                               const std::vector<double>& depth_dev, double thr_depth_dev,
                                ResidualTrail& trail) {
   const std::size_t n = in.points.size();
   trail.points = in.points;
   trail.departure.assign(n, Vec2::Zero());
   trail.weight.assign(n, 0.0);
   trail.weight2.assign(n, 0.0);
+  trail.depth_departure.assign(n, 0.0);
+  trail.depth_weight.assign(n, 0.0);
+  trail.depth_weight2.assign(n, 0.0);
+  trail.depth = in.depth_m.size() == n ? in.depth_m : std::vector<double>(n, 0.0);
   std::vector<bool> moved(n, false);
   const ResidualTrail* prev = in.prev_trail;
-  const bool linked = prev && prev->departure.size() == prev->points.size() &&
-                      prev->weight.size() == prev->points.size() &&
-                      prev->weight2.size() == prev->points.size();
+  const std::size_t m = prev ? prev->points.size() : 0;
+  const bool linked = prev && prev->departure.size() == m && prev->weight.size() == m &&
+                      prev->weight2.size() == m && prev->depth_departure.size() == m &&
+                      prev->depth_weight.size() == m && prev->depth_weight2.size() == m &&
+                      prev->depth.size() == m;
   PointBuckets grid(std::max(opt.trail_link_px, 0.5));
+  PointBuckets depth_grid(std::max(opt.depth_trail_link_px, 0.5));
   if (linked)
-    for (std::size_t j = 0; j < prev->points.size(); ++j)
+    for (std::size_t j = 0; j < m; ++j) {
       if (prev->weight[j] > 0.0) grid.add(prev->points[j].x(), prev->points[j].y(), j);
+      if (prev->depth_weight[j] > 0.0) depth_grid.add(prev->points[j].x(), prev->points[j].y(), j);
+    }
   const double r2 = opt.trail_link_px * opt.trail_link_px;
+  const double rd2 = opt.depth_trail_link_px * opt.depth_trail_link_px;
   for (std::size_t i = 0; i < n; ++i) {
     if (residual3d[i] < 0) continue;
     const Vec2 d(departure[i].x, departure[i].y);
     double w = 1.0, w2 = 1.0;
     Vec2 sum = d;
+    const bool has_dd = depth_dev.size() == n && !std::isnan(depth_dev[i]);
+    double dsum = has_dd ? depth_dev[i] : 0.0, dw = has_dd ? 1.0 : 0.0, dw2 = dw;
     if (!grid.empty()) {
       double best = r2;
       std::optional<std::size_t> from;
@@ -436,10 +527,38 @@ std::vector<bool> follow_trail(const DynamicFilterInput& in, const DynamicFilter
         w2 += a * a * prev->weight2[*from];
       }
     }
+    if (has_dd && !depth_grid.empty()) {
+      // A surface moves as one: the previous frame's feature on the same surface nearest where
+      // the flow starts carries its trail on, though the same corner is seldom found again.
+      double best = rd2;
+      std::optional<std::size_t> from;
+      const double z = in.depth_m[i];
+      depth_grid.around(pts_prev[i].x, pts_prev[i].y, [&](std::size_t j) {
+        const double ex = prev->points[j].x() - pts_prev[i].x;
+        const double ey = prev->points[j].y() - pts_prev[i].y;
+        if (ex * ex + ey * ey <= best &&
+            std::fabs(prev->depth[j] - z) <= opt.depth_trail_same_surface * z) {
+          best = ex * ex + ey * ey;
+          from = j;
+        }
+        return true;
+      });
+      if (from) {
+        const double a = opt.trail_decay;
+        dsum += a * prev->depth_departure[*from];
+        dw += a * prev->depth_weight[*from];
+        dw2 += a * a * prev->depth_weight2[*from];
+      }
+    }
     trail.departure[i] = sum;
     trail.weight[i] = w;
     trail.weight2[i] = w2;
-    moved[i] = w >= opt.trail_min_weight && sum.norm() > opt.trail_k * thr3d * std::sqrt(w2);
+    trail.depth_departure[i] = dsum;
+    trail.depth_weight[i] = dw;
+    trail.depth_weight2[i] = dw2;
+    moved[i] = (w >= opt.trail_min_weight && sum.norm() > opt.trail_k * thr3d * std::sqrt(w2)) ||
+               (dw >= opt.trail_min_weight &&
+                std::fabs(dsum) > opt.trail_k * thr_depth_dev * std::sqrt(dw2));
   }
   return moved;
 }
@@ -935,6 +1054,10 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
   std::vector<double> residual3d(n, -1.0);
   std::vector<double> far_residual(n, -1.0);  // DynamicFilterOptions::far_parallax
   std::vector<double> depth_change(n, -1.0), depth_err_m(n, -1.0);
+  // The previous depth minus its prediction, each the median of a smooth 3x3 window (NaN
+  // unknown): unbiased, unlike depth_err_m's reading nearest the prediction, which a point at a
+  // depth step needs but which draws a slowly receding surface's error to zero.
+  std::vector<double> depth_dev(n, std::numeric_limits<double>::quiet_NaN());
   std::vector<cv::Point2f> departure(n, cv::Point2f(0, 0));  // flow minus ego-motion, with depth
   bool have_3d = false;
   if (has_depth) {
@@ -1061,6 +1184,19 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
               depth_err_m[i] = std::fabs(best - p[2]);
               depth_change[i] = depth_err_m[i] / (p[2] * p[2]);
             }
+            if (opt.depth_trail) {
+              const double z_prev = smooth_depth(*in.prev_depth, in.depth_scale, pu, pv);
+              const int cur_u = static_cast<int>(std::lround(in.points[i].x()));
+              const int cur_v = static_cast<int>(std::lround(in.points[i].y()));
+              const double z_cur = depth_image
+                                       ? smooth_depth(*in.cur_depth, in.depth_scale, cur_u, cur_v)
+                                       : in.depth_m[i];
+              if (z_prev > 0 && z_cur > 0) {
+                const cv::Vec3d Xs = (z_cur / in.depth_m[i]) * cv::Vec3d(X.x(), X.y(), X.z());
+                const double z_pred = (R * Xs + t)[2];
+                if (z_pred > 1e-6) depth_dev[i] = z_prev - z_pred;
+              }
+            }
           }
         }
       }
@@ -1159,8 +1295,19 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
   std::vector<double> thr_out(n, thr2d);
   std::vector<double> thr_in(n, out.degenerate_motion ? thr2d : opt.epipolar_threshold_px);
   std::vector<bool> trail_moved(n, false);
-  if (opt.trail && have_3d)
-    trail_moved = follow_trail(in, opt, pts_prev, residual3d, departure, thr3d, out.trail);
+  if (opt.trail && have_3d) {
+    double thr_depth_dev = 0.0;
+    if (opt.depth_trail) {
+      std::vector<std::size_t> background;
+      for (std::size_t i : cand_idx)
+        if (residual3d[i] >= 0 && residual3d[i] <= kPnpInlierPx) background.push_back(i);
+      thr_depth_dev = depth_departures(in, opt, background, depth_dev);
+    } else {
+      depth_dev.clear();
+    }
+    trail_moved = follow_trail(in, opt, pts_prev, residual3d, departure, thr3d, depth_dev,
+                               thr_depth_dev, out.trail);
+  }
   for (std::size_t i = 0; i < n; ++i) {
     if (residual3d[i] >= 0) {
       score[i] = residual3d[i];
