@@ -501,6 +501,21 @@ std::vector<bool> follow_trail(const DynamicFilterInput& in, const DynamicFilter
     }
   const double r2 = opt.trail_link_px * opt.trail_link_px;
   const double rd2 = opt.depth_trail_link_px * opt.depth_trail_link_px;
+  // The previous frame's feature in `g` nearest `p` within sqrt(max_d2) that `accept`s.
+  const auto nearest = [&](const PointBuckets& g, const cv::Point2f& p, double max_d2,
+                           const auto& accept) {
+    double best = max_d2;
+    std::optional<std::size_t> from;
+    g.around(p.x, p.y, [&](std::size_t j) {
+      const double ex = prev->points[j].x() - p.x, ey = prev->points[j].y() - p.y;
+      if (ex * ex + ey * ey <= best && accept(j)) {
+        best = ex * ex + ey * ey;
+        from = j;
+      }
+      return true;
+    });
+    return from;
+  };
   for (std::size_t i = 0; i < n; ++i) {
     if (residual3d[i] < 0) continue;
     const Vec2 d(departure[i].x, departure[i].y);
@@ -509,17 +524,7 @@ std::vector<bool> follow_trail(const DynamicFilterInput& in, const DynamicFilter
     const bool has_dd = depth_dev.size() == n && !std::isnan(depth_dev[i]);
     double dsum = has_dd ? depth_dev[i] : 0.0, dw = has_dd ? 1.0 : 0.0, dw2 = dw;
     if (!grid.empty()) {
-      double best = r2;
-      std::optional<std::size_t> from;
-      grid.around(pts_prev[i].x, pts_prev[i].y, [&](std::size_t j) {
-        const double ex = prev->points[j].x() - pts_prev[i].x;
-        const double ey = prev->points[j].y() - pts_prev[i].y;
-        if (ex * ex + ey * ey <= best) {
-          best = ex * ex + ey * ey;
-          from = j;
-        }
-        return true;
-      });
+      const auto from = nearest(grid, pts_prev[i], r2, [](std::size_t) { return true; });
       if (from) {
         const double a = opt.trail_decay;
         sum += a * prev->departure[*from];
@@ -530,18 +535,9 @@ std::vector<bool> follow_trail(const DynamicFilterInput& in, const DynamicFilter
     if (has_dd && !depth_grid.empty()) {
       // A surface moves as one: the previous frame's feature on the same surface nearest where
       // the flow starts carries its trail on, though the same corner is seldom found again.
-      double best = rd2;
-      std::optional<std::size_t> from;
       const double z = in.depth_m[i];
-      depth_grid.around(pts_prev[i].x, pts_prev[i].y, [&](std::size_t j) {
-        const double ex = prev->points[j].x() - pts_prev[i].x;
-        const double ey = prev->points[j].y() - pts_prev[i].y;
-        if (ex * ex + ey * ey <= best &&
-            std::fabs(prev->depth[j] - z) <= opt.depth_trail_same_surface * z) {
-          best = ex * ex + ey * ey;
-          from = j;
-        }
-        return true;
+      const auto from = nearest(depth_grid, pts_prev[i], rd2, [&](std::size_t j) {
+        return std::fabs(prev->depth[j] - z) <= opt.depth_trail_same_surface * z;
       });
       if (from) {
         const double a = opt.trail_decay;
