@@ -5,7 +5,9 @@
 // The unknown-class row is the perfect oracle with the scene's largest moving mover of a
 // dynamic class relabelled to a class outside the dynamic list (what a simulator rendering that
 // mover as an unknown class gives the oracle), so only geometry can catch it; the row reports
-// removal over all movers and over that mover alone. The ", k-5" rows add multi-frame evidence
+// removal over all movers and over that mover alone, and over the frames where it moves (the
+// truth's `moving` flag: a walker may stand still at first, and then only a detector knows
+// it). The ", k-5" rows add multi-frame evidence
 // (each frame also judged against the one five frames back, dynamic::combine_baselines), which
 // the System does not run yet. `--work DIR` keeps the rendered scenes and reuses them.
 #include <unistd.h>
@@ -16,6 +18,7 @@
 #include <fstream>
 #include <functional>
 #include <map>
+#include <set>
 
 #include "apps/bench_areas.hpp"
 #include "detect/dynamic_classes.hpp"
@@ -121,7 +124,8 @@ nlohmann::json bench_dynamic(const AreaOptions& o) {
   std::printf(
       "A feature is dynamic when its pixel is in the mover mask. \"Away from outlines\" counts "
       "only features with no pixel of another mover id (static = 0) within %d px (half the flow "
-      "window): nearer, their flow window and descriptor patch straddle a mover's outline.\n\n",
+      "window): nearer, their flow window and descriptor patch straddle a mover's outline. "
+      "\"Moving\": the unknown mover's features on the frames where it moves.\n\n",
       dynamic::RemovalCounts::kOutlinePx);
   std::printf(
       "| scene | mode | dynamic removed | static kept | away from outlines: removed / kept | on "
@@ -162,10 +166,12 @@ nlohmann::json bench_dynamic(const AreaOptions& o) {
     detect::OracleDetector oracle_fn20(boxes, fn20);
     const int unknown = largest_dynamic_mover(boxes);
     std::string unknown_label;
+    std::set<Timestamp> unknown_moves;  // the frames where it moves (it may stand still a while)
     for (io::SequenceBox& b : boxes) {
       if (b.instance != unknown) continue;
       unknown_label = b.label;
       b.label = "unknown";
+      if (b.moving) unknown_moves.insert(b.t);
     }
     detect::OracleDetector oracle_unknown(boxes);
     const pipeline::DynamicEvalScene scene = pipeline::load_dynamic_eval_scene(
@@ -179,7 +185,7 @@ nlohmann::json bench_dynamic(const AreaOptions& o) {
       opt.long_gap = row.long_gap;
       opt.park_vehicles = row.park;
       opt.filter.depth_trail = row.depth_trail;
-      std::size_t on_unknown = 0, unknown_removed = 0;
+      std::size_t on_unknown = 0, unknown_removed = 0, on_moving = 0, moving_removed = 0;
       opt.on_frame = [&](const pipeline::DynamicEvalFrame& f, const dynamic::DynamicFilterInput& in,
                          const dynamic::DynamicFilterResult& r) {
         for (std::size_t i = 0; i < in.points.size(); ++i) {
@@ -187,17 +193,24 @@ nlohmann::json bench_dynamic(const AreaOptions& o) {
           const int v = static_cast<int>(std::lround(in.points[i].y()));
           if (u < 0 || v < 0 || u >= f.mask.width || v >= f.mask.height) continue;
           if (f.mask.row<std::uint16_t>(v)[u] != unknown) continue;
+          const bool removed = r.labels[i] == dynamic::FeatureLabel::kDynamic;
           ++on_unknown;
-          unknown_removed += r.labels[i] == dynamic::FeatureLabel::kDynamic;
+          unknown_removed += removed;
+          if (unknown_moves.count(f.t)) {
+            ++on_moving;
+            moving_removed += removed;
+          }
         }
       };
       const pipeline::DynamicEvalResult res = pipeline::evaluate_dynamic_filter(scene, opt);
       const dynamic::RemovalCounts& c = res.counts;
       const double unknown_pct = on_unknown ? 100.0 * unknown_removed / on_unknown : 0.0;
+      const double moving_pct = on_moving ? 100.0 * moving_removed / on_moving : 0.0;
       const double ms = res.filter_ms.empty() ? 0.0 : median_of(res.filter_ms);
       const double cpu_ms = res.filter_cpu_ms.empty() ? 0.0 : median_of(res.filter_cpu_ms);
       char unknown_cell[64];
-      std::snprintf(unknown_cell, sizeof unknown_cell, "%.1f%% (%zu)", unknown_pct, on_unknown);
+      std::snprintf(unknown_cell, sizeof unknown_cell, "%.1f%% (%zu), %.1f%% moving", unknown_pct,
+                    on_unknown, moving_pct);
       std::printf(
           "| %s | %s | %.1f%% | %.1f%% | %.1f%% / %.1f%% | %s | %zu | %zu | %.2f | %.2f |\n",
           name.c_str(), row.name, c.removed_percent(), c.kept_percent(),
@@ -218,6 +231,8 @@ nlohmann::json bench_dynamic(const AreaOptions& o) {
           {"static_features", c.static_total},
           {"unknown_mover_features", on_unknown},
           {"unknown_mover_removed_percent", unknown_pct},
+          {"unknown_mover_moving_features", on_moving},
+          {"unknown_mover_moving_removed_percent", moving_pct},
           {"filter_ms_median", ms},
           {"filter_cpu_ms_median", cpu_ms},
           {"dynamic_missed_by_reason", reasons_json(c.dynamic_missed_by_reason)},
