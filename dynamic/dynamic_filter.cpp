@@ -42,24 +42,34 @@ double median_of(std::vector<double> v) {
   return *mid;
 }
 
-// The median of the depth readings in the 3x3 window at (u, v), in metres, where at least six
-// read and all lie on one surface (spread within 10% of it); -1 elsewhere. The median of nine
-// cuts the sensor's per-pixel noise about threefold.
-double smooth_depth(const Image& depth, double scale, int u, int v) {
-  if (u < 1 || v < 1 || u + 1 >= depth.width || v + 1 >= depth.height) return -1.0;
+// The depth readings (metres) of the 3x3 window at (u, v), row by row, clipped to the image;
+// empty pixels are skipped. `whole`: all nine pixels lie in the image.
+struct DepthWindow {
   std::array<double, 9> z{};
-  std::size_t k = 0;
-  for (int dv = -1; dv <= 1; ++dv) {
-    const std::uint16_t* row = depth.row<std::uint16_t>(v + dv);
-    for (int du = -1; du <= 1; ++du)
-      if (row[u + du] != 0) z[k++] = row[u + du] / scale;
+  std::size_t count = 0;
+  bool whole = false;
+};
+DepthWindow depth_window(const Image& depth, double scale, int u, int v) {
+  DepthWindow w;
+  w.whole = u >= 1 && v >= 1 && u + 1 < depth.width && v + 1 < depth.height;
+  for (int vv = std::max(0, v - 1); vv <= std::min(depth.height - 1, v + 1); ++vv) {
+    const std::uint16_t* row = depth.row<std::uint16_t>(vv);
+    for (int uu = std::max(0, u - 1); uu <= std::min(depth.width - 1, u + 1); ++uu)
+      if (row[uu] != 0) w.z[w.count++] = row[uu] / scale;
   }
-  if (k < 6) return -1.0;
-  const auto end = z.begin() + static_cast<long>(k);
-  const auto mid = z.begin() + static_cast<long>(k / 2);
-  std::nth_element(z.begin(), mid, end);
+  return w;
+}
+
+// The median of a whole window's readings where at least six read and all lie on one surface
+// (spread within 10% of it); -1 elsewhere. The median of nine cuts the sensor's per-pixel noise
+// about threefold.
+double smooth_depth(DepthWindow w) {
+  if (!w.whole || w.count < 6) return -1.0;
+  const auto end = w.z.begin() + static_cast<long>(w.count);
+  const auto mid = w.z.begin() + static_cast<long>(w.count / 2);
+  std::nth_element(w.z.begin(), mid, end);
   const double med = *mid;
-  const auto [lo, hi] = std::minmax_element(z.begin(), end);
+  const auto [lo, hi] = std::minmax_element(w.z.begin(), end);
   return *hi - *lo <= 0.1 * med ? med : -1.0;
 }
 
@@ -1163,30 +1173,26 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
             // The previous depth around where the flow puts the point; the reading nearest the
             // prediction in a 3x3 window, so that a point beside a depth step is not judged by
             // the surface next to it.
-            const int pu = static_cast<int>(std::lround(pts_prev[i].x));
-            const int pv = static_cast<int>(std::lround(pts_prev[i].y));
+            const DepthWindow prev_window = depth_window(
+                *in.prev_depth, in.depth_scale, static_cast<int>(std::lround(pts_prev[i].x)),
+                static_cast<int>(std::lround(pts_prev[i].y)));
             double best = -1.0;
-            for (int dv = -1; dv <= 1; ++dv) {
-              for (int du = -1; du <= 1; ++du) {
-                const int uu = pu + du, vv = pv + dv;
-                if (uu < 0 || vv < 0 || uu >= in.prev_depth->width || vv >= in.prev_depth->height)
-                  continue;
-                const double z = in.prev_depth->row<std::uint16_t>(vv)[uu] / in.depth_scale;
-                if (z <= 0) continue;
-                if (best < 0 || std::fabs(z - p[2]) < std::fabs(best - p[2])) best = z;
-              }
+            for (std::size_t k = 0; k < prev_window.count; ++k) {
+              const double z = prev_window.z[k];
+              if (best < 0 || std::fabs(z - p[2]) < std::fabs(best - p[2])) best = z;
             }
             if (best > 0) {
               depth_err_m[i] = std::fabs(best - p[2]);
               depth_change[i] = depth_err_m[i] / (p[2] * p[2]);
             }
             if (opt.depth_trail) {
-              const double z_prev = smooth_depth(*in.prev_depth, in.depth_scale, pu, pv);
-              const int cur_u = static_cast<int>(std::lround(in.points[i].x()));
-              const int cur_v = static_cast<int>(std::lround(in.points[i].y()));
-              const double z_cur = depth_image
-                                       ? smooth_depth(*in.cur_depth, in.depth_scale, cur_u, cur_v)
-                                       : in.depth_m[i];
+              const double z_prev = smooth_depth(prev_window);
+              const double z_cur =
+                  depth_image
+                      ? smooth_depth(depth_window(*in.cur_depth, in.depth_scale,
+                                                  static_cast<int>(std::lround(in.points[i].x())),
+                                                  static_cast<int>(std::lround(in.points[i].y()))))
+                      : in.depth_m[i];
               if (z_prev > 0 && z_cur > 0) {
                 const cv::Vec3d Xs = (z_cur / in.depth_m[i]) * cv::Vec3d(X.x(), X.y(), X.z());
                 const double z_pred = (R * Xs + t)[2];
