@@ -43,6 +43,9 @@ struct Row {
   int long_gap = 0;          // multi-frame evidence against frame k - long_gap; 0 off
   bool park = true;          // vehicles seen still are parked (DynamicEvalOptions::park_vehicles)
   bool depth_trail = false;  // DynamicFilterOptions::depth_trail
+  // One feature budget for the whole image (DynamicEvalOptions::mover_budget_margin_px < 0),
+  // as before the scenery got a budget of its own beside the movers' boxes.
+  bool one_budget = false;
 };
 
 // kYolo is the model the pipeline runs (detect::kPipelineYoloModel, xl at 320); kYoloV11 the
@@ -73,6 +76,10 @@ const Row kRows[] = {
     {"hybrid+oracle, unknown-class mover, depth trail", kOracleUnknown,
      dynamic::FilterMode::kHybrid, 0, true, true},
     {"geometry, depth trail", -1, dynamic::FilterMode::kGeometryOnly, 0, true, true},
+    // The features as the System picked them before the scenery had a budget of its own.
+    {"hybrid+yolo, one feature budget", kYolo, dynamic::FilterMode::kHybrid, 0, true, false, true},
+    {"hybrid+oracle, one feature budget", kOracle, dynamic::FilterMode::kHybrid, 0, true, false,
+     true},
 };
 
 // The moving mover of a dynamic class that covers the most box area over the sequence.
@@ -185,6 +192,7 @@ nlohmann::json bench_dynamic(const AreaOptions& o) {
       opt.long_gap = row.long_gap;
       opt.park_vehicles = row.park;
       opt.filter.depth_trail = row.depth_trail;
+      if (row.one_budget) opt.mover_budget_margin_px = -1;
       std::size_t on_unknown = 0, unknown_removed = 0, on_moving = 0, moving_removed = 0;
       opt.on_frame = [&](const pipeline::DynamicEvalFrame& f, const dynamic::DynamicFilterInput& in,
                          const dynamic::DynamicFilterResult& r) {

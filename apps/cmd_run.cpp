@@ -47,6 +47,7 @@ struct RunFlags {
   bool no_corner_tracks = false;
   bool no_park = false;
   int carry_boxes = kestrel::detect::BoxCoastOptions{}.max_frames;
+  int mover_budget_margin = kestrel::pipeline::SystemOptions{}.mover_budget_margin_px;
   bool realtime = false;
   int max_in_flight = 2;
   double dense_map_interval = kestrel::pipeline::SystemOptions{}.dense_map_interval_s;
@@ -284,6 +285,11 @@ void setup_run(CLI::App& app) {
                   "image motion (0: off)")
       ->capture_default_str()
       ->check(CLI::Range(0, 30));
+  cmd->add_option("--mover-budget", flags->mover_budget_margin,
+                  "PX: features are picked apart in the last frame's mover boxes grown by PX, and "
+                  "the scenery gets the whole feature budget of its own (-1: one budget)")
+      ->capture_default_str()
+      ->check(CLI::Range(-1, 200));
   cmd->add_flag("--half-res-flow", flags->half_resolution_flow,
                 "the dynamic filter's flow on the half-resolution image: a quarter of the cost");
   cmd->add_option("--imu-vouched-flow", flags->flow_skip_gate_px,
@@ -355,6 +361,7 @@ void setup_run(CLI::App& app) {
     opt.corner_tracks = !flags->no_corner_tracks;
     opt.park_vehicles = !flags->no_park;
     opt.carried_box_frames = flags->carry_boxes;
+    opt.mover_budget_margin_px = flags->mover_budget_margin;
     const RunSummary summary = kestrel::pipeline::run_sequence(*source, opt);
     print_summary("run", summary);
     kestrel::report::ReportInput report;

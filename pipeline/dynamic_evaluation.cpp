@@ -62,6 +62,7 @@ DynamicEvalScene load_dynamic_eval_scene(const std::string& dir,
   DynamicEvalScene scene;
   scene.dir = dir;
   scene.K = calib.camera.K();
+  scene.camera = calib.camera;
   scene.depth_range_m = calib.depth_max.value_or(0.0);
   // All frames and IMU samples first: the gyro rotation of a frame needs the samples after it.
   std::vector<RgbdFrame> frames;
@@ -132,6 +133,8 @@ DynamicEvalResult evaluate_dynamic_filter(const DynamicEvalScene& scene,
   dynamic::ParkedBoxTracker parked(options.parked);
   detect::BoxCoaster coaster(options.box_coasting);
   DynamicEvalResult out;
+  const tracking::FeatureExtractor extractor(scene.camera, tracking::TrackerOptions{}.features);
+  std::vector<dynamic::BoxRegion> last_movers;  // the last frame's, as the System keeps them
   // The last judged frame's pyramid, the next one's previous (as the System keeps it); the
   // filter checks it was built from the image it is given as previous and rebuilds otherwise.
   dynamic::FlowPyramid last_pyramid;
@@ -142,6 +145,15 @@ DynamicEvalResult evaluate_dynamic_filter(const DynamicEvalScene& scene,
     in.cur_gray = &f.gray;
     in.points = f.points;
     in.depth_m = f.depth_m;
+    if (options.mover_budget_margin_px >= 0 && !last_movers.empty()) {
+      const Image movers =
+          mover_mask(f.gray.width, f.gray.height, last_movers, options.mover_budget_margin_px);
+      const tracking::FrameFeatures ff = extractor.extract(
+          f.gray, nullptr, f.depth.empty() ? nullptr : &f.depth, f.depth_scale, f.t, &movers);
+      in.points.clear();
+      for (const auto& kp : ff.keypoints) in.points.push_back(kp.px);
+      in.depth_m = ff.sensor_depth;
+    }
     if (!f.depth.empty()) in.cur_depth = &f.depth;
     in.depth_scale = f.depth_scale;
     in.K = scene.K;
@@ -189,6 +201,7 @@ DynamicEvalResult evaluate_dynamic_filter(const DynamicEvalScene& scene,
       }
       if (options.park_vehicles) parked.assign(f.t, in.boxes, parkable_box);
     }
+    last_movers = moving_boxes(in.boxes);
     dynamic::DynamicFilterResult r;
     if (k == 0 || options.filter.mode == dynamic::FilterMode::kOff) {
       // The System keeps every feature of its first frame (nothing to compare with) and with

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "core/camera.hpp"
 #include "core/eigen_types.hpp"
 #include "core/image.hpp"
 #include "core/timestamp.hpp"
@@ -21,6 +22,7 @@
 #include "dynamic/dynamic_filter.hpp"
 #include "dynamic/parked_boxes.hpp"
 #include "dynamic/removal_metrics.hpp"
+#include "pipeline/mover_mask.hpp"
 
 namespace kestrel::pipeline {
 
@@ -47,6 +49,7 @@ struct DynamicEvalFrame {
 struct DynamicEvalScene {
   std::string dir;
   Mat3 K = Mat3::Identity();
+  PinholeCamera camera;        // the features are extracted again with it (mover_budget)
   double depth_range_m = 0.0;  // Calibration::depth_max (0: not given)
   std::vector<DynamicEvalFrame> frames;
 };
@@ -70,6 +73,9 @@ struct DynamicEvalOptions {
   // A mover's box carried across the frames its detection misses, as the System does
   // (SystemOptions::box_coasting).
   detect::BoxCoastOptions box_coasting;
+  // As SystemOptions::mover_budget_margin_px: a frame after one with mover boxes has its
+  // features extracted again with those boxes set apart (negative: the loader's features).
+  int mover_budget_margin_px = kMoverBudgetMarginPx;
   bool prev_depth = true;  // give the filter the previous frame's depth image
   // Give the filter the IMU's predicted translation (DynamicEvalFrame::t_cur_prev), as the System
   // does (SystemOptions::dynamic_motion_prior); only against the previous frame (gap 1).

@@ -27,6 +27,7 @@
 #include "dynamic/removal_metrics.hpp"
 #include "imu/inertial_predictor.hpp"
 #include "loop/loop_gate.hpp"
+#include "pipeline/mover_mask.hpp"
 #include "pipeline/stage_stats.hpp"
 #include "semantic/object_database.hpp"
 #include "tracking/corner_tracks.hpp"
@@ -53,6 +54,11 @@ struct SystemOptions {
   // A mover's box is carried across the frames its detection misses (detect/box_coasting.hpp):
   // predicted from its image velocity for up to box_coasting.max_frames frames.
   detect::BoxCoastOptions box_coasting;
+  // The feature extractor sets the previous frame's mover boxes (grown by this margin, in
+  // pixels) apart: the scenery gets the whole feature budget of its own, and the movers keep
+  // the share they had (tracking::FeatureExtractor::extract). Negative: off, one budget for
+  // the whole image, where a crowd took up to 64% of market's features.
+  int mover_budget_margin_px = kMoverBudgetMarginPx;
   // World frame: the body pose this returns for the first frame's stamp (e.g. the ground
   // truth's, so maps and objects compare with a simulated world); when it is unset or returns
   // nothing, gravity-aligned from the IMU, else the first camera pose.

@@ -55,15 +55,19 @@ namespace {
 
 // Picks up to `target` keypoints: first the best `quota` of every cell (round-robin by rank),
 // then the best of the rest, so texture-rich cells cannot starve the others.
+// `among` (optional): only these candidates compete.
 std::vector<int> bucket(const std::vector<cv::KeyPoint>& kps, int width, int height, int cell_px,
-                        int target) {
+                        int target, const std::vector<int>* among = nullptr) {
   const int cols = std::max(1, (width + cell_px - 1) / cell_px);
   const int rows = std::max(1, (height + cell_px - 1) / cell_px);
   std::vector<std::vector<int>> cells(static_cast<std::size_t>(cols) * rows);
-  for (std::size_t i = 0; i < kps.size(); ++i) {
-    const int cx = std::clamp(static_cast<int>(kps[i].pt.x) / cell_px, 0, cols - 1);
-    const int cy = std::clamp(static_cast<int>(kps[i].pt.y) / cell_px, 0, rows - 1);
-    cells[static_cast<std::size_t>(cy) * cols + cx].push_back(static_cast<int>(i));
+  const std::size_t count = among ? among->size() : kps.size();
+  for (std::size_t j = 0; j < count; ++j) {
+    const int i = among ? (*among)[j] : static_cast<int>(j);
+    const cv::KeyPoint& k = kps[static_cast<std::size_t>(i)];
+    const int cx = std::clamp(static_cast<int>(k.pt.x) / cell_px, 0, cols - 1);
+    const int cy = std::clamp(static_cast<int>(k.pt.y) / cell_px, 0, rows - 1);
+    cells[static_cast<std::size_t>(cy) * cols + cx].push_back(i);
   }
   for (auto& c : cells) {
     std::sort(c.begin(), c.end(), [&](int a, int b) { return kps[a].response > kps[b].response; });
@@ -85,6 +89,31 @@ std::vector<int> bucket(const std::vector<cv::KeyPoint>& kps, int width, int hei
     }
   }
   return chosen;
+}
+
+// Bucketing with movers' regions apart: the candidates there keep the share that bucketing
+// over the whole image gives them, and the rest of the image gets the whole target of its
+// own, so a crowd filling half the view no longer takes half the scenery's features. The
+// features in the movers' regions are the same as without them; the others are a superset.
+std::vector<int> bucket_apart(const std::vector<cv::KeyPoint>& kps, const cv::Mat& apart, int width,
+                              int height, int cell_px, int target) {
+  std::vector<int> chosen = bucket(kps, width, height, cell_px, target);
+  const auto in_apart = [&](int i) {
+    const cv::Point2f& p = kps[static_cast<std::size_t>(i)].pt;
+    const int u = std::clamp(static_cast<int>(p.x), 0, apart.cols - 1);
+    const int v = std::clamp(static_cast<int>(p.y), 0, apart.rows - 1);
+    return apart.at<std::uint8_t>(v, u) != 0;
+  };
+  std::vector<int> outside;
+  for (int i = 0; i < static_cast<int>(kps.size()); ++i) {
+    if (!in_apart(i)) outside.push_back(i);
+  }
+  if (outside.size() == kps.size()) return chosen;
+  std::vector<int> out = bucket(kps, width, height, cell_px, target, &outside);
+  for (int i : chosen) {
+    if (in_apart(i)) out.push_back(i);
+  }
+  return out;
 }
 
 // OpenCV's ORB reports a level-L corner at (x_L, y_L) * scale^L, but its pyramid is built
@@ -166,7 +195,8 @@ void check_same_size(const Image& a, const Image& b, const char* what) {
 }  // namespace
 
 FrameFeatures FeatureExtractor::extract(const Image& image, const Image* ignore, const Image* depth,
-                                        double depth_scale, Timestamp t) const {
+                                        double depth_scale, Timestamp t,
+                                        const Image* movers) const {
   if (image.empty() || image.type != PixelType::kU8 ||
       (image.channels != 1 && image.channels != 3)) {
     throw std::invalid_argument("FeatureExtractor: image must be 8-bit grey or BGR");
@@ -194,6 +224,20 @@ FrameFeatures FeatureExtractor::extract(const Image& image, const Image* ignore,
     }
     if (!(depth_scale > 0.0)) throw std::invalid_argument("FeatureExtractor: depth_scale <= 0");
   }
+  cv::Mat apart;
+  if (movers && !movers->empty()) {
+    check_same_size(image, *movers, "movers mask");
+    if (movers->type != PixelType::kU8 || movers->channels != 1) {
+      throw std::invalid_argument("FeatureExtractor: movers mask must be 8-bit, 1 channel");
+    }
+    apart = io::as_mat(*movers);
+  }
+  const auto choose = [&](const std::vector<cv::KeyPoint>& candidates) {
+    return apart.empty() ? bucket(candidates, image.width, image.height, options_.cell_px,
+                                  options_.target_features)
+                         : bucket_apart(candidates, apart, image.width, image.height,
+                                        options_.cell_px, options_.target_features);
+  };
 
   // Describing only the chosen keypoints: ORB's compute() rebuilds and blurs the pyramid, but
   // that costs less than describing the 2000 candidates bucketing drops. compute() returns the
@@ -209,7 +253,7 @@ FrameFeatures FeatureExtractor::extract(const Image& image, const Image* ignore,
       kps.clear();
       impl_->fallback->detect(grey, kps, mask);
     }
-    chosen = bucket(kps, image.width, image.height, options_.cell_px, options_.target_features);
+    chosen = choose(kps);
     std::vector<cv::KeyPoint> described;
     described.reserve(chosen.size());
     for (std::size_t i = 0; i < chosen.size(); ++i) {
@@ -238,7 +282,7 @@ FrameFeatures FeatureExtractor::extract(const Image& image, const Image* ignore,
       kps.clear();
       impl_->fallback->detectAndCompute(grey, mask, kps, desc);
     }
-    chosen = bucket(kps, image.width, image.height, options_.cell_px, options_.target_features);
+    chosen = choose(kps);
   }
   std::vector<cv::KeyPoint> selected;
   selected.reserve(chosen.size());

@@ -55,13 +55,17 @@ class FeatureExtractor {
 
   // Features of `image` (8-bit grey or BGR). `ignore` (optional, 8-bit, image size): pixels
   // != 0 get no features. `depth` (optional, 16-bit, registered to image): metres =
-  // value / depth_scale. Throws std::invalid_argument on mismatched sizes or pixel types.
+  // value / depth_scale. `movers` (optional, 8-bit, image size): pixels != 0 are where movers
+  // are expected; features there keep the share the whole image's bucketing gives them and
+  // the rest of the image gets target_features of its own (up to twice the target in all).
+  // Throws std::invalid_argument on mismatched sizes or pixel types.
   FrameFeatures extract(const Image& image, const Image* ignore = nullptr,
-                        const Image* depth = nullptr, double depth_scale = 5000.0,
-                        Timestamp t = 0) const;
-  FrameFeatures extract(const RgbdFrame& frame, const Image* ignore = nullptr) const {
+                        const Image* depth = nullptr, double depth_scale = 5000.0, Timestamp t = 0,
+                        const Image* movers = nullptr) const;
+  FrameFeatures extract(const RgbdFrame& frame, const Image* ignore = nullptr,
+                        const Image* movers = nullptr) const {
     return extract(frame.color, ignore, frame.depth.empty() ? nullptr : &frame.depth,
-                   frame.depth_scale, frame.t);
+                   frame.depth_scale, frame.t, movers);
   }
 
   const FeatureExtractorOptions& options() const { return options_; }

@@ -60,12 +60,14 @@ TEST(DynamicEvaluation, ModesOnARenderedCafe) {
   }
 
   const auto run = [&](dynamic::FilterMode mode, int detector, int long_gap = 0,
-                       int carried_frames = detect::BoxCoastOptions{}.max_frames) {
+                       int carried_frames = detect::BoxCoastOptions{}.max_frames,
+                       int mover_budget_margin_px = kMoverBudgetMarginPx) {
     DynamicEvalOptions opt;
     opt.filter.mode = mode;
     opt.detector = detector;
     opt.long_gap = long_gap;
     opt.box_coasting.max_frames = carried_frames;
+    opt.mover_budget_margin_px = mover_budget_margin_px;
     return evaluate_dynamic_filter(scene, opt);
   };
   const DynamicEvalResult off = run(dynamic::FilterMode::kOff, -1);
@@ -77,7 +79,13 @@ TEST(DynamicEvaluation, ModesOnARenderedCafe) {
   const DynamicEvalResult det = run(dynamic::FilterMode::kDetectionOnly, 0);
   const DynamicEvalResult hybrid = run(dynamic::FilterMode::kHybrid, 0);
   const DynamicEvalResult multi = run(dynamic::FilterMode::kHybrid, 0, 5);
-  EXPECT_EQ(hybrid.counts.dynamic_total, off.counts.dynamic_total);  // the same features
+  // With one feature budget, the loader's features; with the movers' boxes of the frame before
+  // set apart, more of the scenery's.
+  const DynamicEvalResult hybrid_one =
+      run(dynamic::FilterMode::kHybrid, 0, 0, detect::BoxCoastOptions{}.max_frames, -1);
+  EXPECT_EQ(hybrid_one.counts.dynamic_total, off.counts.dynamic_total);
+  EXPECT_EQ(hybrid_one.counts.static_total, off.counts.static_total);
+  EXPECT_GT(hybrid.counts.static_total, off.counts.static_total + 500);
   EXPECT_EQ(hybrid.filter_ms.size(), scene.frames.size() - 1);  // the first frame is not judged
   // Truth boxes remove most movers (not all: the first frame is not judged, and the chairs
   // that are pushed later are movers of a class outside the dynamic list, standing still);
@@ -91,8 +99,10 @@ TEST(DynamicEvaluation, ModesOnARenderedCafe) {
 
   // A detector that misses boxes: the movers' boxes carried over its misses remove more of
   // them than its boxes alone do.
-  const DynamicEvalResult flaky_carried = run(dynamic::FilterMode::kHybrid, 1);
-  const DynamicEvalResult flaky_alone = run(dynamic::FilterMode::kHybrid, 1, 0, 0);
+  // On the same features (one budget: carried boxes would also move the movers' budget).
+  const DynamicEvalResult flaky_carried =
+      run(dynamic::FilterMode::kHybrid, 1, 0, detect::BoxCoastOptions{}.max_frames, -1);
+  const DynamicEvalResult flaky_alone = run(dynamic::FilterMode::kHybrid, 1, 0, 0, -1);
   EXPECT_GT(flaky_carried.counts.dynamic_removed, flaky_alone.counts.dynamic_removed);
 
   DynamicEvalOptions bad;

@@ -267,6 +267,41 @@ TEST(FeatureExtractor, IgnoreMaskKeepsFeaturesOut) {
   for (const auto& k : f.keypoints) EXPECT_GE(k.px.x(), ignore.width / 2 - 1.0);
 }
 
+// A crowd filling part of the view must not take the scenery's features: with the movers'
+// region set apart, the features there are those the whole image's bucketing gives it, and
+// the rest of the image gets the whole target of its own.
+TEST(FeatureExtractor, MoversRegionKeepsItsShareAndTheSceneryGetsTheWholeTarget) {
+  const FeatureExtractor ex(tum_camera());
+  const RgbdFrame frame = tum_frame();
+  Image movers = Image::allocate(frame.color.width, frame.color.height, 1, PixelType::kU8);
+  const int split = frame.color.width / 2;
+  for (int y = 0; y < movers.height; ++y) {
+    for (int x = 0; x < movers.width; ++x) movers.row<std::uint8_t>(y)[x] = x < split ? 255 : 0;
+  }
+  const FrameFeatures one = ex.extract(frame);
+  const FrameFeatures apart = ex.extract(frame, nullptr, &movers);
+  const auto split_by_region = [&](const FrameFeatures& f) {
+    std::pair<std::set<std::pair<double, double>>, std::set<std::pair<double, double>>> out;
+    for (const auto& k : f.keypoints) {
+      // ORB's own position decides the region, and it is up to 1.5 px from ours: the 2 px
+      // either side of the split are left out.
+      if (k.px.x() < split - 2.0) out.first.insert({k.px.x(), k.px.y()});
+      if (k.px.x() >= split + 2.0) out.second.insert({k.px.x(), k.px.y()});
+    }
+    return out;
+  };
+  const auto [one_in, one_out] = split_by_region(one);
+  const auto [apart_in, apart_out] = split_by_region(apart);
+  ASSERT_GT(one_in.size(), 200u);
+  EXPECT_EQ(apart_in, one_in);
+  EXPECT_TRUE(std::includes(apart_out.begin(), apart_out.end(), one_out.begin(), one_out.end()));
+  std::cout << "features right of the split: " << one_out.size() << " with one budget, "
+            << apart_out.size() << " with the movers apart; left: " << one_in.size() << "\n";
+  EXPECT_GE(apart_out.size(), one_out.size() + 200);
+  EXPECT_GT(apart.size(), 1000u);
+  EXPECT_EQ(apart.depth.size(), apart.size());
+}
+
 TEST(FeatureExtractor, RetainDropsByIndexAndKeepsArraysAligned) {
   const FeatureExtractor ex(tum_camera());
   FrameFeatures f = ex.extract(tum_frame());
@@ -330,6 +365,8 @@ TEST(FeatureExtractor, RejectsBadInputs) {
   EXPECT_THROW(ex.extract(frame.color, &small), std::invalid_argument);
   EXPECT_THROW(ex.extract(frame.color, nullptr, &frame.color), std::invalid_argument);
   EXPECT_THROW(ex.extract(frame.depth), std::invalid_argument);
+  EXPECT_THROW(ex.extract(frame, nullptr, &small), std::invalid_argument);
+  EXPECT_THROW(ex.extract(frame, nullptr, &frame.depth), std::invalid_argument);
   FeatureExtractorOptions bad;
   bad.scale_factor = 1.0f;
   EXPECT_THROW(FeatureExtractor(tum_camera(), bad), std::invalid_argument);

@@ -1,0 +1,22 @@
+#pragma once
+// Where the last frame's movers were, for the feature extractor to set apart before this
+// frame's own boxes arrive (tracking::FeatureExtractor::extract's `movers`).
+#include <vector>
+
+#include "core/image.hpp"
+#include "dynamic/dynamic_filter.hpp"
+
+namespace kestrel::pipeline {
+
+// Twelve lock-step 60 s draws (cafe 1-3, market 1-4, ugv-loop, uav-zigzag 1-4; APE summed):
+// one budget 0.356 m, margin 8 px 0.379, 24 px 0.315; sixteen: 0.542 -> 0.398 at 24 px (README
+// "Dynamic features").
+inline constexpr int kMoverBudgetMarginPx = 24;
+
+// 255 inside the boxes that are not parked, grown by `margin` pixels; 0 elsewhere.
+Image mover_mask(int width, int height, const std::vector<dynamic::BoxRegion>& boxes, int margin);
+
+// The boxes of moving things among `boxes` (parked vehicles are scenery).
+std::vector<dynamic::BoxRegion> moving_boxes(const std::vector<dynamic::BoxRegion>& boxes);
+
+}  // namespace kestrel::pipeline
