@@ -20,6 +20,7 @@
 #include "imu/preintegration.hpp"
 #include "io/cv_image.hpp"
 #include "loop/loop_detector.hpp"
+#include "loop/place_view.hpp"
 #include "loop/pose_graph.hpp"
 #include "loop/vocabulary.hpp"
 #include "mapping/map_io.hpp"
@@ -719,15 +720,7 @@ struct System::Impl {
     job.attitude_held = attitude_held;
     job.t = kf->t;
     job.T_w_c = kf->T_w_c;
-    job.view.id = kf->id;
-    const tracking::FrameFeatures& ff = kf->features;
-    job.view.descriptors = ff.descriptors;
-    job.view.points_c = ff.points_c;
-    for (std::size_t i = 0; i < ff.size(); ++i) {
-      job.view.keypoints_un.push_back(ff.keypoints[i].un);
-      job.view.has_point.push_back(ff.has_depth(i) ? 1 : 0);
-    }
-    job.view.neighbours = tracker.map().covisible(kf->id, 10);
+    job.view = loop::place_view(kf->id, kf->features, tracker.map().covisible(kf->id, 10));
     loop_jobs.push(std::move(job));
   }
 
