@@ -134,7 +134,7 @@ DynamicEvalResult evaluate_dynamic_filter(const DynamicEvalScene& scene,
   detect::BoxCoaster coaster(options.box_coasting);
   DynamicEvalResult out;
   const tracking::FeatureExtractor extractor(scene.camera, tracking::TrackerOptions{}.features);
-  std::vector<dynamic::BoxRegion> last_movers;  // the last frame's, as the System keeps them
+  std::vector<dynamic::BoxRegion> last_boxes;  // the last frame's, as the System keeps them
   // The last judged frame's pyramid, the next one's previous (as the System keeps it); the
   // filter checks it was built from the image it is given as previous and rebuilds otherwise.
   dynamic::FlowPyramid last_pyramid;
@@ -145,9 +145,9 @@ DynamicEvalResult evaluate_dynamic_filter(const DynamicEvalScene& scene,
     in.cur_gray = &f.gray;
     in.points = f.points;
     in.depth_m = f.depth_m;
-    if (options.mover_budget_margin_px >= 0 && !last_movers.empty()) {
+    if (options.mover_budget_margin_px >= 0 && !last_boxes.empty()) {
       const Image movers =
-          mover_mask(f.gray.width, f.gray.height, last_movers, options.mover_budget_margin_px);
+          mover_mask(f.gray.width, f.gray.height, last_boxes, options.mover_budget_margin_px);
       const tracking::FrameFeatures ff = extractor.extract(
           f.gray, nullptr, f.depth.empty() ? nullptr : &f.depth, f.depth_scale, f.t, &movers);
       in.points.clear();
@@ -201,7 +201,7 @@ DynamicEvalResult evaluate_dynamic_filter(const DynamicEvalScene& scene,
       }
       if (options.park_vehicles) parked.assign(f.t, in.boxes, parkable_box);
     }
-    last_movers = moving_boxes(in.boxes);
+    last_boxes = in.boxes;
     dynamic::DynamicFilterResult r;
     if (k == 0 || options.filter.mode == dynamic::FilterMode::kOff) {
       // The System keeps every feature of its first frame (nothing to compare with) and with

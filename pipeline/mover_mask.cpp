@@ -23,12 +23,4 @@ Image mover_mask(int width, int height, const std::vector<dynamic::BoxRegion>& b
   return mask;
 }
 
-std::vector<dynamic::BoxRegion> moving_boxes(const std::vector<dynamic::BoxRegion>& boxes) {
-  std::vector<dynamic::BoxRegion> out;
-  for (const auto& b : boxes) {
-    if (!b.parked) out.push_back(b);
-  }
-  return out;
-}
-
 }  // namespace kestrel::pipeline

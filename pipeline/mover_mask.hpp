@@ -13,10 +13,8 @@ namespace kestrel::pipeline {
 // "Dynamic features").
 inline constexpr int kMoverBudgetMarginPx = 24;
 
-// 255 inside the boxes that are not parked, grown by `margin` pixels; 0 elsewhere.
+// 255 inside the boxes that are not parked (a parked vehicle is scenery), grown by `margin`
+// pixels; 0 elsewhere.
 Image mover_mask(int width, int height, const std::vector<dynamic::BoxRegion>& boxes, int margin);
-
-// The boxes of moving things among `boxes` (parked vehicles are scenery).
-std::vector<dynamic::BoxRegion> moving_boxes(const std::vector<dynamic::BoxRegion>& boxes);
 
 }  // namespace kestrel::pipeline

@@ -125,9 +125,9 @@ struct System::Impl {
   detect::DynamicClassList parkable_classes;
   dynamic::ParkedBoxTracker parked_boxes;  // tracking thread
   detect::BoxCoaster box_coaster;          // tracking thread
-  // The last frame's boxes of moving things (not parked): where this frame's movers are
-  // expected when its features are extracted, before its own boxes arrive. Tracking thread.
-  std::vector<dynamic::BoxRegion> last_mover_boxes;
+  // The last frame's mover boxes (parked ones marked): where this frame's movers are expected
+  // when its features are extracted, before its own boxes arrive. Tracking thread.
+  std::vector<dynamic::BoxRegion> last_boxes;
   tracking::Tracker tracker;
   std::unique_ptr<tracking::StereoMatcher> stereo;  // stereo calibrations only
 
@@ -736,8 +736,8 @@ struct System::Impl {
     tracking::FrameFeatures features;
     if (!q.right.empty()) {
       features = process_stereo(q);
-    } else if (options.mover_budget_margin_px >= 0 && !last_mover_boxes.empty()) {
-      const Image movers = mover_mask(frame.color.width, frame.color.height, last_mover_boxes,
+    } else if (options.mover_budget_margin_px >= 0 && !last_boxes.empty()) {
+      const Image movers = mover_mask(frame.color.width, frame.color.height, last_boxes,
                                       options.mover_budget_margin_px);
       features = tracker.extractor().extract(frame, nullptr, &movers);
     } else {
@@ -781,7 +781,7 @@ struct System::Impl {
     }
     report.detections = static_cast<int>(boxes.size());
     report.boxes = boxes;
-    last_mover_boxes = moving_boxes(boxes);
+    last_boxes = boxes;
 
     if (inertial) {
       t0 = Clock::now();
