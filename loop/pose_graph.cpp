@@ -74,8 +74,9 @@ PoseGraphResult optimize_pose_graph(const std::map<PoseId, SE3>& poses,
     const auto a = params.find(e.from);
     const auto b = params.find(e.to);
     if (a == params.end() || b == params.end() || e.from == e.to) continue;
-    auto* cost = new ceres::AutoDiffCostFunction<RelativePoseCost, 6, 7, 7>(
-        new RelativePoseCost(e.T_from_to, options.sigma_translation, options.sigma_rotation));
+    auto* cost = new ceres::AutoDiffCostFunction<RelativePoseCost, 6, 7, 7>(new RelativePoseCost(
+        e.T_from_to, e.sigma_translation > 0.0 ? e.sigma_translation : options.sigma_translation,
+        e.sigma_rotation > 0.0 ? e.sigma_rotation : options.sigma_rotation));
     ceres::LossFunction* loss = nullptr;
     if (e.kind == EdgeKind::kLoop && options.loop_loss_scale > 0.0)
       loss = new ceres::CauchyLoss(options.loop_loss_scale);

@@ -19,10 +19,13 @@ struct PoseGraphEdge {
   PoseId to = -1;
   SE3 T_from_to;  // measured pose of `to` in the frame of `from`: T_w_from⁻¹ · T_w_to
   EdgeKind kind = EdgeKind::kSequential;
+  // > 0: this edge's own sigmas (loop/edge_sigmas.hpp); 0: PoseGraphOptions'.
+  double sigma_translation = 0.0;  // metres
+  double sigma_rotation = 0.0;     // radians
 };
 
 struct PoseGraphOptions {
-  // Information is diag(1/σ²) from these fixed sigmas, the same for every edge kind.
+  // Information is diag(1/σ²) from these sigmas, for every edge without sigmas of its own.
   double sigma_translation = 0.05;  // metres
   double sigma_rotation = 0.01;     // radians
   int max_iterations = 100;

@@ -1164,8 +1164,9 @@ struct System::Impl {
       keyframe_poses[id] = job->T_w_c;
       keyframe_stamps[id] = job->t;
       if (previous) {
-        graph_edges.push_back({*previous, id, keyframe_poses[*previous].inverse() * job->T_w_c,
-                               loop::EdgeKind::kSequential});
+        graph_edges.push_back(loop::odometry_edge(*previous, id,
+                                                  keyframe_poses[*previous].inverse() * job->T_w_c,
+                                                  options.pose_graph_sigmas));
       }
       previous = id;
       const auto t0 = Clock::now();
@@ -1182,8 +1183,8 @@ struct System::Impl {
           continue;
         }
         ++loops;
-        graph_edges.push_back(
-            {match->match, match->query, match->T_match_query, loop::EdgeKind::kLoop});
+        graph_edges.push_back(loop::loop_edge(match->match, match->query, match->T_match_query,
+                                              options.pose_graph_sigmas));
       }
     }
   }
