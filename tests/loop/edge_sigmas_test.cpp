@@ -2,10 +2,15 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
+#include <map>
 #include <random>
 #include <stdexcept>
+#include <string>
+#include <vector>
 
 namespace kestrel::loop {
 namespace {
