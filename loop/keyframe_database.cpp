@@ -36,8 +36,16 @@ std::vector<LoopCandidate> KeyframeDatabase::query(const BowVector& bow,
                                                    const std::set<KeyframeId>& exclude,
                                                    const KeyframeDatabaseOptions& options) const {
   double normaliser = 0.0;
-  for (KeyframeId n : neighbours)
-    if (const BowVector* b = this->bow(n)) normaliser = std::max(normaliser, l1_score(bow, *b));
+  bool first = true;
+  for (KeyframeId n : neighbours) {
+    const BowVector* b = this->bow(n);
+    if (!b) continue;
+    const double s = l1_score(bow, *b);
+    normaliser = first ? s
+                       : (options.least_similar_neighbour ? std::min(normaliser, s)
+                                                          : std::max(normaliser, s));
+    first = false;
+  }
 
   // The inverted index limits scoring to keyframes sharing at least one word.
   std::unordered_map<KeyframeId, int> shared;

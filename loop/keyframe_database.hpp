@@ -15,15 +15,21 @@ using KeyframeId = std::int64_t;
 struct LoopCandidate {
   KeyframeId id = -1;
   double score = 0.0;       // raw L1 score against the query
-  double normalized = 0.0;  // score / best score of the query against its own neighbours
+  double normalized = 0.0;  // score / the query's score against its own neighbours (see options)
 };
 
 struct KeyframeDatabaseOptions {
   double min_score = 0.02;  // raw L1 score below which a keyframe is never a candidate
-  // Of the best neighbour score: a loop must look at least as much like the query as the
-  // query's own neighbours do. Repetitive texture (tiles, bricks) raises every score alike;
-  // this ratio is what separates a revisit from it.
+  // Of a neighbour score: a loop must look at least as much like the query as the query's own
+  // neighbours do. Repetitive texture (tiles, bricks) raises every score alike; this ratio is
+  // what separates a revisit from it.
   double min_normalized = 1.0;
+  // Which neighbour: the least similar (ORB-SLAM's rule: as much as the weakest covisible
+  // keyframe) or the most similar. The most similar asked a revisit to beat the query's best
+  // neighbour, which a crowd walking through the view rarely let it: market closed 5-7 loops
+  // where its still twin closed 20-26. Least similar, with the loop gate at 2% of the path and
+  // loop/edge_sigmas.hpp's weights: 39-53 (README "Loop closing").
+  bool least_similar_neighbour = true;
   // Of the best candidate's score (ORB-SLAM keeps groups above 0.75 of the best): a clear
   // winner suppresses the look-alikes.
   double min_ratio_to_best = 0.75;

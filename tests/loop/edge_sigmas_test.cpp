@@ -58,7 +58,7 @@ TEST(EdgeSigmas, RejectsSigmasThatAreNotPositive) {
 // odometry drifted 0.2 m, closed by a loop back to the start. One pair of sigmas for every edge
 // hands each edge an equal share of the correction, so the hover, whose odometry is as good as
 // exact, takes half of it and is pulled 0.1 m apart; weighed by their steps, the flight takes
-// it.
+// it, as much of it as the loop's sigma against the flight's gives.
 TEST(EdgeSigmas, ALoopsCorrectionGoesWhereTheOdometryIsLeastSure) {
   std::vector<SE3> truth;
   for (int k = 0; k < 20; ++k) truth.emplace_back(SO3(), Vec3(0.0, 0.0, k % 2 == 0 ? 0.0 : 0.005));
@@ -99,7 +99,9 @@ TEST(EdgeSigmas, ALoopsCorrectionGoesWhereTheOdometryIsLeastSure) {
   EXPECT_GT(end_error(initial), 0.18);
   EXPECT_GT(hover_spread(e.poses), 0.05);
   EXPECT_LT(hover_spread(w.poses), 0.01);
-  EXPECT_LT(end_error(w.poses), 0.03);  // the odometry keeps the share its sigmas give it
+  // One loop as sure as the flight's odometry (3 cm against 20 steps of 6 mm) takes about half
+  // the drift off; the tens a revisit closes take the rest.
+  EXPECT_LT(end_error(w.poses), 0.6 * end_error(initial));
 }
 
 // A 10 m square, one keyframe every 0.25 m, whose odometry drifts 0.2 degrees of yaw per metre
