@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <set>
+
 namespace kestrel::loop {
 namespace {
 
@@ -61,6 +63,39 @@ TEST(KeyframeDatabase, QueryRanksExcludesAndNormalises) {
   ASSERT_EQ(c.size(), 1u);
   EXPECT_EQ(c[0].id, 1);
   EXPECT_EQ(db.size(), 3u);
+}
+
+// ORB-SLAM's rule: a candidate must look as much like the query as the query's least similar
+// neighbour does. Asked to beat the most similar one instead, a revisit rarely could while a
+// crowd crossed the view (market: 5-7 loops against its still twin's 20-26).
+TEST(KeyframeDatabase, NormalisesByTheLeastSimilarNeighbourUnlessAskedForTheMost) {
+  KeyframeDatabaseOptions least{
+      .min_score = 0.01, .min_normalized = 1.0, .min_ratio_to_best = 0.0, .max_candidates = 10};
+  KeyframeDatabaseOptions most = least;
+  most.least_similar_neighbour = false;
+  EXPECT_TRUE(KeyframeDatabaseOptions{}.least_similar_neighbour);
+  KeyframeDatabase db(least);
+  db.add(0, make_bow({{1, 1.0}, {2, 1.0}, {3, 1.0}, {4, 1.0}}));  // the same place as the query
+  db.add(1, make_bow({{1, 1.0}, {2, 1.0}, {8, 2.0}}));            // half of it: 0.5
+  db.add(3, make_bow({{1, 1.0}, {2, 1.0}, {3, 1.0}, {7, 1.0}}));  // a neighbour at 0.75
+  db.add(4, make_bow({{1, 1.0}, {5, 1.0}, {6, 1.0}, {7, 1.0}}));  // a neighbour at 0.25
+  const BowVector q = make_bow({{1, 1.0}, {2, 1.0}, {3, 1.0}, {4, 1.0}});
+  const std::set<KeyframeId> exclude{3, 4};
+
+  auto c = db.query(q, {3, 4}, exclude);
+  ASSERT_EQ(c.size(), 2u);
+  EXPECT_EQ(c[1].id, 1);
+  EXPECT_NEAR(c[1].normalized, 0.5 / 0.25, 1e-12);
+
+  c = db.query(q, {3, 4}, exclude, most);
+  ASSERT_EQ(c.size(), 1u);
+  EXPECT_EQ(c[0].id, 0);
+  EXPECT_NEAR(c[0].normalized, 1.0 / 0.75, 1e-12);
+
+  // Neighbours not in the database are skipped, not read as a score of 0.
+  c = db.query(q, {4, 99}, exclude);
+  ASSERT_EQ(c.size(), 2u);
+  EXPECT_NEAR(c[1].normalized, 0.5 / 0.25, 1e-12);
 }
 
 TEST(ConsistencyChecker, AcceptsAfterThreeConsecutiveOverlappingQueries) {
