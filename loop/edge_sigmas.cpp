@@ -17,11 +17,17 @@ void check(double value, bool may_be_zero, const char* field) {
 
 }  // namespace
 
-PoseGraphEdge odometry_edge(PoseId from, PoseId to, const SE3& T_from_to, const EdgeSigmas& s) {
+void validate(const EdgeSigmas& s) {
   check(s.odometry_translation_floor_m, false, "odometry_translation_floor_m");
   check(s.odometry_translation_per_m, true, "odometry_translation_per_m");
   check(s.odometry_rotation_floor_rad, false, "odometry_rotation_floor_rad");
   check(s.odometry_rotation_per_m_rad, true, "odometry_rotation_per_m_rad");
+  check(s.loop_translation_m, false, "loop_translation_m");
+  check(s.loop_rotation_rad, false, "loop_rotation_rad");
+}
+
+PoseGraphEdge odometry_edge(PoseId from, PoseId to, const SE3& T_from_to, const EdgeSigmas& s) {
+  validate(s);
   const double step = T_from_to.translation().norm();
   PoseGraphEdge e{from, to, T_from_to, EdgeKind::kSequential};
   e.sigma_translation = s.odometry_translation_floor_m + s.odometry_translation_per_m * step;
@@ -30,8 +36,7 @@ PoseGraphEdge odometry_edge(PoseId from, PoseId to, const SE3& T_from_to, const 
 }
 
 PoseGraphEdge loop_edge(PoseId from, PoseId to, const SE3& T_from_to, const EdgeSigmas& s) {
-  check(s.loop_translation_m, false, "loop_translation_m");
-  check(s.loop_rotation_rad, false, "loop_rotation_rad");
+  validate(s);
   PoseGraphEdge e{from, to, T_from_to, EdgeKind::kLoop};
   e.sigma_translation = s.loop_translation_m;
   e.sigma_rotation = s.loop_rotation_rad;

@@ -21,7 +21,12 @@ struct EdgeSigmas {
   double loop_rotation_rad = 0.002;
 };
 
-// Throw std::invalid_argument naming the field when a sigma would not be positive and finite.
+// Throws std::invalid_argument naming the field when a sigma would not be positive and finite
+// (the per-metre shares may be 0). The System checks its options with it before its threads
+// start, so a bad value is reported to the caller, not thrown in the loop-closing thread.
+void validate(const EdgeSigmas& sigmas);
+
+// Both validate `sigmas` first.
 PoseGraphEdge odometry_edge(PoseId from, PoseId to, const SE3& T_from_to,
                             const EdgeSigmas& sigmas = {});
 PoseGraphEdge loop_edge(PoseId from, PoseId to, const SE3& T_from_to,

@@ -19,6 +19,7 @@
 #include "imu/inertial_local_ba.hpp"
 #include "imu/preintegration.hpp"
 #include "io/cv_image.hpp"
+#include "loop/edge_sigmas.hpp"
 #include "loop/loop_detector.hpp"
 #include "loop/place_view.hpp"
 #include "loop/pose_graph.hpp"
@@ -278,6 +279,7 @@ struct System::Impl {
           o.noise = calib.imu;
           return o;
         }()) {
+    loop::validate(options.pose_graph_sigmas);  // here, not first in the loop-closing thread
     if (calib.is_stereo()) {
       stereo = std::make_unique<tracking::StereoMatcher>(calib.stereo_rig(),
                                                          tracker.extractor().options());

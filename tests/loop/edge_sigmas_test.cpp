@@ -49,6 +49,8 @@ TEST(EdgeSigmas, RejectsSigmasThatAreNotPositive) {
   s = EdgeSigmas{};
   s.loop_rotation_rad = std::numeric_limits<double>::quiet_NaN();
   EXPECT_THROW(loop_edge(0, 1, SE3(), s), std::invalid_argument);
+  EXPECT_THROW(validate(s), std::invalid_argument);
+  EXPECT_NO_THROW(validate(EdgeSigmas{}));
   s = EdgeSigmas{};
   s.odometry_translation_per_m = 0.0;  // a floor alone is allowed
   EXPECT_NO_THROW(odometry_edge(0, 1, SE3(), s));
