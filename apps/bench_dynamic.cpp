@@ -46,6 +46,9 @@ struct Row {
   // One feature budget for the whole image (DynamicEvalOptions::mover_budget_margin_px < 0),
   // as before the scenery got a budget of its own beside the movers' boxes.
   bool one_budget = false;
+  // Features extracted on the previous frame's movers too (DynamicEvalOptions::mover_silhouettes
+  // off), as before the silhouettes.
+  bool no_silhouette = false;
 };
 
 // kYolo is the model the pipeline runs (detect::kPipelineYoloModel, xl at 320); kYoloV11 the
@@ -79,6 +82,11 @@ const Row kRows[] = {
     // The features as the System picked them before the scenery had a budget of its own.
     {"hybrid+yolo, one feature budget", kYolo, dynamic::FilterMode::kHybrid, 0, true, false, true},
     {"hybrid+oracle, one feature budget", kOracle, dynamic::FilterMode::kHybrid, 0, true, false,
+     true},
+    // The features as the System picked them before it left the movers' silhouettes out.
+    {"hybrid+yolo, no silhouette", kYolo, dynamic::FilterMode::kHybrid, 0, true, false, false,
+     true},
+    {"hybrid+oracle, no silhouette", kOracle, dynamic::FilterMode::kHybrid, 0, true, false, false,
      true},
 };
 
@@ -132,14 +140,17 @@ nlohmann::json bench_dynamic(const AreaOptions& o) {
       "A feature is dynamic when its pixel is in the mover mask. \"Away from outlines\" counts "
       "only features with no pixel of another mover id (static = 0) within %d px (half the flow "
       "window): nearer, their flow window and descriptor patch straddle a mover's outline. "
-      "\"Moving\": the unknown mover's features on the frames where it moves.\n\n",
+      "\"Moving\": the unknown mover's features on the frames where it moves. \"Movers' features "
+      "kept a frame\": what reaches tracking; with the movers' silhouettes "
+      "(dynamic/mover_silhouette.hpp) fewer mover features are extracted at all, so it tells "
+      "more than the percentages when rows extract differently.\n\n",
       dynamic::RemovalCounts::kOutlinePx);
   std::printf(
       "| scene | mode | dynamic removed | static kept | away from outlines: removed / kept | on "
       "the "
-      "unknown mover | dynamic features | static features | filter ms p50 | filter CPU ms p50 "
-      "|\n"
-      "|---|---|---|---|---|---|---|---|---|---|\n");
+      "unknown mover | dynamic features | static features | movers' features kept a frame | "
+      "static features kept a frame | filter ms p50 | filter CPU ms p50 |\n"
+      "|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   detect::YoloFastest yolo(detect::find_models_dir(), detect::pipeline_yolo_options());
   detect::YoloFastestOptions seed_yolo;
   seed_yolo.model = detect::YoloModel::kV11;
@@ -193,6 +204,7 @@ nlohmann::json bench_dynamic(const AreaOptions& o) {
       opt.park_vehicles = row.park;
       opt.filter.depth_trail = row.depth_trail;
       if (row.one_budget) opt.mover_budget_margin_px = -1;
+      if (row.no_silhouette) opt.mover_silhouettes = false;
       std::size_t on_unknown = 0, unknown_removed = 0, on_moving = 0, moving_removed = 0;
       opt.on_frame = [&](const pipeline::DynamicEvalFrame& f, const dynamic::DynamicFilterInput& in,
                          const dynamic::DynamicFilterResult& r) {
@@ -215,15 +227,20 @@ nlohmann::json bench_dynamic(const AreaOptions& o) {
       const double unknown_pct = on_unknown ? 100.0 * unknown_removed / on_unknown : 0.0;
       const double moving_pct = on_moving ? 100.0 * moving_removed / on_moving : 0.0;
       const double ms = res.filter_ms.empty() ? 0.0 : median_of(res.filter_ms);
+      const auto per_frame = [&](std::size_t n) {
+        return scene.frames.empty() ? 0.0 : static_cast<double>(n) / scene.frames.size();
+      };
       const double cpu_ms = res.filter_cpu_ms.empty() ? 0.0 : median_of(res.filter_cpu_ms);
       char unknown_cell[64];
       std::snprintf(unknown_cell, sizeof unknown_cell, "%.1f%% (%zu), %.1f%% moving", unknown_pct,
                     on_unknown, moving_pct);
       std::printf(
-          "| %s | %s | %.1f%% | %.1f%% | %.1f%% / %.1f%% | %s | %zu | %zu | %.2f | %.2f |\n",
+          "| %s | %s | %.1f%% | %.1f%% | %.1f%% / %.1f%% | %s | %zu | %zu | %.1f | %.1f | %.2f | "
+          "%.2f |\n",
           name.c_str(), row.name, c.removed_percent(), c.kept_percent(),
           c.removed_away_from_outlines_percent(), c.kept_away_from_outlines_percent(), unknown_cell,
-          c.dynamic_total, c.static_total, ms, cpu_ms);
+          c.dynamic_total, c.static_total, per_frame(c.dynamic_total - c.dynamic_removed),
+          per_frame(c.static_kept), ms, cpu_ms);
       reason_lines.push_back("| " + name + " | " + row.name + " | " +
                              reasons_text(c.dynamic_missed_by_reason) + " | " +
                              reasons_text(c.static_removed_by_reason) + " |");
@@ -236,6 +253,8 @@ nlohmann::json bench_dynamic(const AreaOptions& o) {
           {"dynamic_removed_away_from_outlines_percent", c.removed_away_from_outlines_percent()},
           {"dynamic_near_outline_features", c.dynamic_near_outline},
           {"dynamic_features", c.dynamic_total},
+          {"dynamic_kept_per_frame", per_frame(c.dynamic_total - c.dynamic_removed)},
+          {"static_kept_per_frame", per_frame(c.static_kept)},
           {"static_features", c.static_total},
           {"unknown_mover_features", on_unknown},
           {"unknown_mover_removed_percent", unknown_pct},

@@ -48,6 +48,7 @@ struct RunFlags {
   bool no_park = false;
   int carry_boxes = kestrel::detect::BoxCoastOptions{}.max_frames;
   int mover_budget_margin = kestrel::pipeline::SystemOptions{}.mover_budget_margin_px;
+  int mover_silhouette = kestrel::pipeline::SystemOptions{}.mover_silhouette.grow_px;
   bool realtime = false;
   int max_in_flight = 2;
   double dense_map_interval = kestrel::pipeline::SystemOptions{}.dense_map_interval_s;
@@ -290,6 +291,11 @@ void setup_run(CLI::App& app) {
                   "the scenery gets the whole feature budget of its own (-1: one budget)")
       ->capture_default_str()
       ->check(CLI::Range(-1, 200));
+  cmd->add_option("--mover-silhouette", flags->mover_silhouette,
+                  "PX: no features where the last frame's movers were, pixel by pixel (their "
+                  "boxes' depth at the object's, grown by PX; -1: off)")
+      ->capture_default_str()
+      ->check(CLI::Range(-1, 100));
   cmd->add_flag("--half-res-flow", flags->half_resolution_flow,
                 "the dynamic filter's flow on the half-resolution image: a quarter of the cost");
   cmd->add_option("--imu-vouched-flow", flags->flow_skip_gate_px,
@@ -362,6 +368,7 @@ void setup_run(CLI::App& app) {
     opt.park_vehicles = !flags->no_park;
     opt.carried_box_frames = flags->carry_boxes;
     opt.mover_budget_margin_px = flags->mover_budget_margin;
+    opt.mover_silhouette_grow_px = flags->mover_silhouette;
     const RunSummary summary = kestrel::pipeline::run_sequence(*source, opt);
     print_summary("run", summary);
     kestrel::report::ReportInput report;

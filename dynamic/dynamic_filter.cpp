@@ -16,6 +16,7 @@
 #include "core/camera.hpp"
 #include "core/reprojection.hpp"
 #include "core/se3.hpp"
+#include "dynamic/object_depth.hpp"
 
 namespace kestrel::dynamic {
 namespace {
@@ -266,51 +267,6 @@ void flow_by_window(const std::vector<cv::Mat>& cur_levels, const std::vector<cv
     }
     if (opt.lk_window_dim == opt.lk_window) break;
   }
-}
-
-// Sorts 16-bit depth readings in two counting passes (low byte, then high byte): a walker's box
-// core holds thousands of them each frame, and std::sort took 0.1 ms of the filter's 3 there.
-void sort_readings(std::vector<std::uint16_t>& v) {
-  std::vector<std::uint16_t> tmp(v.size());
-  for (const int shift : {0, 8}) {
-    std::array<std::size_t, 257> start{};
-    for (const std::uint16_t x : v) ++start[((x >> shift) & 0xff) + 1];
-    for (std::size_t b = 1; b < start.size(); ++b) start[b] += start[b - 1];
-    for (const std::uint16_t x : v) tmp[start[(x >> shift) & 0xff]++] = x;
-    v.swap(tmp);
-  }
-}
-
-// The depths of the largest surface in `region` of a 16-bit depth image (every other pixel):
-// those within one foreground band's width (twice DynamicFilterOptions::foreground_band_m or
-// _rel) of each other that are most numerous. A median of all of them would fall between a
-// walker and the wall behind when each holds half the region.
-std::vector<double> largest_surface(const Image& depth, double scale, const BoxRegion& region,
-                                    const DynamicFilterOptions& opt) {
-  std::vector<std::uint16_t> raw;  // sorted as read: the order of their depths
-  const int x0 = std::max(0, static_cast<int>(region.x_min));
-  const int x1 = std::min(depth.width, static_cast<int>(region.x_max));
-  const int y0 = std::max(0, static_cast<int>(region.y_min));
-  const int y1 = std::min(depth.height, static_cast<int>(region.y_max));
-  for (int v = y0; v < y1; v += 2) {
-    const std::uint16_t* row = depth.row<std::uint16_t>(v);
-    for (int u = x0; u < x1; u += 2) {
-      if (row[u]) raw.push_back(row[u]);
-    }
-  }
-  sort_readings(raw);
-  const auto z = [&](std::size_t k) { return raw[k] / scale; };
-  std::size_t best_lo = 0, best_hi = 0, hi = 0;
-  for (std::size_t lo = 0; lo < raw.size(); ++lo) {
-    const double width = 2.0 * std::max(opt.foreground_band_m, opt.foreground_band_rel * z(lo));
-    hi = std::max(hi, lo);
-    while (hi < raw.size() && z(hi) <= z(lo) + width) ++hi;
-    if (hi - lo > best_hi - best_lo) best_lo = lo, best_hi = hi;
-  }
-  std::vector<double> out;
-  out.reserve(best_hi - best_lo);
-  for (std::size_t k = best_lo; k < best_hi; ++k) out.push_back(z(k));
-  return out;
 }
 
 // Depth pixels within `r` of a feature (a (2r+1)^2 square, clipped to the image): how many read
@@ -876,9 +832,7 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
   if (use_boxes && in.depth_m.size() == n) {
     for (std::size_t b = 0; b < in.boxes.size(); ++b) {
       const BoxRegion& box = in.boxes[b];
-      const float w = box.x_max - box.x_min, h = box.y_max - box.y_min;
-      const BoxRegion core{box.x_min + 0.25f * w, box.y_min + 0.15f * h, box.x_max - 0.25f * w,
-                           box.y_max - 0.35f * h};
+      const BoxRegion core = box_core(box);
       std::vector<double> core_depths;
       for (std::size_t i = 0; i < n; ++i) {
         if (in.depth_m[i] > 0 && core.contains(static_cast<float>(in.points[i].x()),
@@ -890,7 +844,8 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
       // features: ORB corners crowd onto the textured scenery behind a walker, so their median
       // can be the background's while the walker covers most of the core.
       if (depth_image && opt.dense_core_depth && core_depths.size() >= 3) {
-        std::vector<double> surface = largest_surface(*in.cur_depth, in.depth_scale, core, opt);
+        std::vector<double> surface = largest_surface(
+            *in.cur_depth, in.depth_scale, core, opt.foreground_band_m, opt.foreground_band_rel);
         if (surface.size() >= 8) core_depths = std::move(surface);
       }
       if (core_depths.size() < 3) {

@@ -11,6 +11,7 @@
 #include "core/so3.hpp"
 #include "core/thread_cpu_time.hpp"
 #include "detect/dynamic_classes.hpp"
+#include "dynamic/mover_silhouette.hpp"
 #include "imu/inertial_predictor.hpp"
 #include "io/cv_image.hpp"
 #include "io/dataset.hpp"
@@ -148,8 +149,16 @@ DynamicEvalResult evaluate_dynamic_filter(const DynamicEvalScene& scene,
     if (options.mover_budget_margin_px >= 0 && !last_boxes.empty()) {
       const Image movers =
           mover_mask(f.gray.width, f.gray.height, last_boxes, options.mover_budget_margin_px);
-      const tracking::FrameFeatures ff = extractor.extract(
-          f.gray, nullptr, f.depth.empty() ? nullptr : &f.depth, f.depth_scale, f.t, &movers);
+      Image silhouette;
+      const DynamicEvalFrame* prev = k > 0 ? &scene.frames[k - 1] : nullptr;
+      if (options.mover_silhouettes && prev && !prev->depth.empty() &&
+          prev->depth.width == f.gray.width && prev->depth.height == f.gray.height) {
+        silhouette = dynamic::mover_silhouette(prev->depth, prev->depth_scale, last_boxes,
+                                               options.mover_silhouette, options.filter);
+      }
+      const tracking::FrameFeatures ff =
+          extractor.extract(f.gray, silhouette.empty() ? nullptr : &silhouette,
+                            f.depth.empty() ? nullptr : &f.depth, f.depth_scale, f.t, &movers);
       in.points.clear();
       for (const auto& kp : ff.keypoints) in.points.push_back(kp.px);
       in.depth_m = ff.sensor_depth;

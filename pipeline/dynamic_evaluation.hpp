@@ -20,6 +20,7 @@
 #include "detect/detector.hpp"
 #include "detect/dynamic_classes.hpp"
 #include "dynamic/dynamic_filter.hpp"
+#include "dynamic/mover_silhouette.hpp"
 #include "dynamic/parked_boxes.hpp"
 #include "dynamic/removal_metrics.hpp"
 #include "pipeline/mover_mask.hpp"
@@ -76,6 +77,10 @@ struct DynamicEvalOptions {
   // As SystemOptions::mover_budget_margin_px: a frame after one with mover boxes has its
   // features extracted again with those boxes set apart (negative: the loader's features).
   int mover_budget_margin_px = kMoverBudgetMarginPx;
+  // ... and, as SystemOptions::mover_silhouettes, no features where the previous frame's movers
+  // were (only with the extraction above).
+  bool mover_silhouettes = true;
+  dynamic::MoverSilhouetteOptions mover_silhouette;
   bool prev_depth = true;  // give the filter the previous frame's depth image
   // Give the filter the IMU's predicted translation (DynamicEvalFrame::t_cur_prev), as the System
   // does (SystemOptions::dynamic_motion_prior); only against the previous frame (gap 1).

@@ -201,6 +201,9 @@ RunSummary run_sequence(io::MeasurementSource& source, const RunOptions& options
   sys_opt.park_vehicles = options.park_vehicles;
   sys_opt.box_coasting.max_frames = options.carried_box_frames;
   sys_opt.mover_budget_margin_px = options.mover_budget_margin_px;
+  sys_opt.mover_silhouettes = options.mover_silhouette_grow_px >= 0;
+  if (sys_opt.mover_silhouettes)
+    sys_opt.mover_silhouette.grow_px = options.mover_silhouette_grow_px;
   sys_opt.load_map = options.load_map;
   // With ground truth, the run's world is the truth's (nearest pose within 20 ms of the first
   // frame), so maps and objects can be scored against it; APE aligns anyway.

@@ -49,6 +49,8 @@ struct RunOptions {
   int carried_box_frames = detect::BoxCoastOptions{}.max_frames;
   // SystemOptions::mover_budget_margin_px (negative: one feature budget for the whole image)
   int mover_budget_margin_px = SystemOptions{}.mover_budget_margin_px;
+  // SystemOptions::mover_silhouette.grow_px (negative: SystemOptions::mover_silhouettes off)
+  int mover_silhouette_grow_px = SystemOptions{}.mover_silhouette.grow_px;
   bool progress = true;
   std::string progress_label;    // printed before the bar when not empty
   std::size_t strip_frames = 4;  // frames kept (evenly spread) for the report's strip

@@ -280,6 +280,7 @@ struct System::Impl {
           return o;
         }()) {
     loop::validate(options.pose_graph_sigmas);  // here, not first in the loop-closing thread
+    if (options.mover_silhouettes) dynamic::validate(options.mover_silhouette, options.dynamic);
     if (calib.is_stereo()) {
       stereo = std::make_unique<tracking::StereoMatcher>(calib.stereo_rig(),
                                                          tracker.extractor().options());
@@ -741,7 +742,14 @@ struct System::Impl {
     } else if (options.mover_budget_margin_px >= 0 && !last_boxes.empty()) {
       const Image movers = mover_mask(frame.color.width, frame.color.height, last_boxes,
                                       options.mover_budget_margin_px);
-      features = tracker.extractor().extract(frame, nullptr, &movers);
+      if (options.mover_silhouettes && !prev_depth.empty() &&
+          prev_depth.width == frame.color.width && prev_depth.height == frame.color.height) {
+        const Image silhouette = dynamic::mover_silhouette(
+            prev_depth, prev_depth_scale, last_boxes, options.mover_silhouette, options.dynamic);
+        features = tracker.extractor().extract(frame, &silhouette, &movers);
+      } else {
+        features = tracker.extractor().extract(frame, nullptr, &movers);
+      }
     } else {
       features = tracker.extractor().extract(frame);
     }

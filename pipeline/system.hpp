@@ -23,6 +23,7 @@
 #include "detect/detector.hpp"
 #include "detect/dynamic_classes.hpp"
 #include "dynamic/dynamic_filter.hpp"
+#include "dynamic/mover_silhouette.hpp"
 #include "dynamic/parked_boxes.hpp"
 #include "dynamic/removal_metrics.hpp"
 #include "imu/inertial_predictor.hpp"
@@ -60,6 +61,12 @@ struct SystemOptions {
   // the share they had (tracking::FeatureExtractor::extract). Negative: off, one budget for
   // the whole image, where a crowd took up to 64% of market's features.
   int mover_budget_margin_px = kMoverBudgetMarginPx;
+  // The extractor also leaves out the previous frame's movers themselves, pixel by pixel: the
+  // depth readings of each mover box's object, grown (dynamic/mover_silhouette.hpp, which says
+  // why; figures in the README, "Dynamic features"). Off: they compete with the scenery for the
+  // budget as before.
+  bool mover_silhouettes = true;
+  dynamic::MoverSilhouetteOptions mover_silhouette;
   // World frame: the body pose this returns for the first frame's stamp (e.g. the ground
   // truth's, so maps and objects compare with a simulated world); when it is unset or returns
   // nothing, gravity-aligned from the IMU, else the first camera pose.

@@ -129,10 +129,16 @@ TEST(BenchAreas, TinyRunOfEveryAreaWritesFiniteFigures) {
   }
   EXPECT_EQ(number_at(j, "/dynamic/cafe/rows/off/dynamic_removed_percent"), 0.0);
   EXPECT_GT(number_at(j, "/dynamic/cafe/unknown_mover/instance"), 0);
-  EXPECT_GT(number_at(j, "/dynamic/cafe/rows/hybrid+oracle/unknown_mover_removed_percent"),
-            number_at(j,
-                      "/dynamic/cafe/rows/hybrid+oracle, unknown-class mover/"
-                      "unknown_mover_removed_percent"));
+  // The mover's features that reach tracking: fewer when the detector knows its class. Counts,
+  // not percentages: with its class known, the movers' silhouettes leave it few features to
+  // judge at all (dynamic/mover_silhouette.hpp).
+  const auto unknown_mover_kept = [&](const std::string& row) {
+    const std::string p = "/dynamic/cafe/rows/" + row + "/";
+    return number_at(j, p + "unknown_mover_features") *
+           (1.0 - number_at(j, p + "unknown_mover_removed_percent") / 100.0);
+  };
+  EXPECT_LT(unknown_mover_kept("hybrid+oracle"),
+            unknown_mover_kept("hybrid+oracle, unknown-class mover"));
 
   std::ifstream text(log);
   const std::string printed((std::istreambuf_iterator<char>(text)), {});

@@ -59,10 +59,14 @@ TEST(DynamicEvaluation, ModesOnARenderedCafe) {
     EXPECT_GE(with_translation, 4);  // from 0.2 s of fixes on
   }
 
+  // The modes judge every feature the movers give: with the movers' silhouettes (on in the
+  // System) the walkers' features are mostly not extracted at all.
   const auto run = [&](dynamic::FilterMode mode, int detector, int long_gap = 0,
                        int carried_frames = detect::BoxCoastOptions{}.max_frames,
-                       int mover_budget_margin_px = kMoverBudgetMarginPx) {
+                       int mover_budget_margin_px = kMoverBudgetMarginPx,
+                       bool silhouettes = false) {
     DynamicEvalOptions opt;
+    opt.mover_silhouettes = silhouettes;
     opt.filter.mode = mode;
     opt.detector = detector;
     opt.long_gap = long_gap;
@@ -87,6 +91,20 @@ TEST(DynamicEvaluation, ModesOnARenderedCafe) {
   EXPECT_EQ(hybrid_one.counts.static_total, off.counts.static_total);
   EXPECT_GT(hybrid.counts.static_total, off.counts.static_total + 500);
   EXPECT_EQ(hybrid.filter_ms.size(), scene.frames.size() - 1);  // the first frame is not judged
+  // With the movers' silhouettes of the frame before, most of their features are never
+  // extracted: what the silhouettes leave out is movers', not scenery.
+  const DynamicEvalResult hybrid_silhouettes =
+      run(dynamic::FilterMode::kHybrid, 0, 0, detect::BoxCoastOptions{}.max_frames,
+          kMoverBudgetMarginPx, true);
+  std::printf("on movers %zu -> %zu (kept %zu -> %zu), static %zu -> %zu\n",
+              hybrid.counts.dynamic_total, hybrid_silhouettes.counts.dynamic_total,
+              hybrid.counts.dynamic_total - hybrid.counts.dynamic_removed,
+              hybrid_silhouettes.counts.dynamic_total - hybrid_silhouettes.counts.dynamic_removed,
+              hybrid.counts.static_total, hybrid_silhouettes.counts.static_total);
+  EXPECT_LT(hybrid_silhouettes.counts.dynamic_total, hybrid.counts.dynamic_total / 2);
+  EXPECT_GE(hybrid_silhouettes.counts.static_total, hybrid.counts.static_total * 99 / 100);
+  EXPECT_LE(hybrid_silhouettes.counts.dynamic_total - hybrid_silhouettes.counts.dynamic_removed,
+            hybrid.counts.dynamic_total - hybrid.counts.dynamic_removed);
   // Truth boxes remove most movers (not all: the first frame is not judged, and the chairs
   // that are pushed later are movers of a class outside the dynamic list, standing still);
   // hybrid keeps more of the static scene than boxes alone.
