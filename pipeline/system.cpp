@@ -739,19 +739,19 @@ struct System::Impl {
     tracking::FrameFeatures features;
     if (!q.right.empty()) {
       features = process_stereo(q);
-    } else if (options.mover_budget_margin_px >= 0 && !last_boxes.empty()) {
-      const Image movers = mover_mask(frame.color.width, frame.color.height, last_boxes,
-                                      options.mover_budget_margin_px);
-      if (options.mover_silhouettes && !prev_depth.empty() &&
-          prev_depth.width == frame.color.width && prev_depth.height == frame.color.height) {
-        const Image silhouette = dynamic::mover_silhouette(
-            prev_depth, prev_depth_scale, last_boxes, options.mover_silhouette, options.dynamic);
-        features = tracker.extractor().extract(frame, &silhouette, &movers);
-      } else {
-        features = tracker.extractor().extract(frame, nullptr, &movers);
-      }
     } else {
-      features = tracker.extractor().extract(frame);
+      Image movers, silhouette;
+      if (options.mover_budget_margin_px >= 0 && !last_boxes.empty()) {
+        movers = mover_mask(frame.color.width, frame.color.height, last_boxes,
+                            options.mover_budget_margin_px);
+      }
+      if (options.mover_silhouettes && !last_boxes.empty() && !prev_depth.empty() &&
+          prev_depth.width == frame.color.width && prev_depth.height == frame.color.height) {
+        silhouette = dynamic::mover_silhouette(prev_depth, prev_depth_scale, last_boxes,
+                                               options.mover_silhouette, options.dynamic);
+      }
+      features = tracker.extractor().extract(frame, silhouette.empty() ? nullptr : &silhouette,
+                                             movers.empty() ? nullptr : &movers);
     }
     stats.record("features", ms_since(t0));
     report.features = static_cast<int>(features.size());

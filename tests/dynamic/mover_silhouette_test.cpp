@@ -35,15 +35,19 @@ int count_set(const Image& m) {
   return n;
 }
 
+// The walker's box (x 80..159, y 50..189) in scene_depth, grown by grow_px.
+Image walker_silhouette(int grow_px) {
+  MoverSilhouetteOptions opt;
+  opt.grow_px = grow_px;
+  return mover_silhouette(scene_depth(), kScale, {{80.0f, 50.0f, 160.0f, 190.0f}}, opt,
+                          DynamicFilterOptions{});
+}
+
 // The walker's box holds as much wall as walker: the silhouette is the walker alone.
 TEST(MoverSilhouette, IsTheObjectsDepthInsideItsBoxNotTheSceneryBehind) {
-  const Image depth = scene_depth();
-  MoverSilhouetteOptions opt;
-  opt.grow_px = 0;
-  const Image m = mover_silhouette(depth, kScale, {{80.0f, 50.0f, 160.0f, 190.0f}}, opt,
-                                   DynamicFilterOptions{});
+  const Image m = walker_silhouette(0);
   ASSERT_EQ(m.type, PixelType::kU8);
-  ASSERT_EQ(m.width, depth.width);
+  ASSERT_EQ(m.width, scene_depth().width);
   EXPECT_EQ(count_set(m), 40 * 120);
   EXPECT_EQ(at(m, 100, 60), 255);
   EXPECT_EQ(at(m, 139, 179), 255);
@@ -52,11 +56,7 @@ TEST(MoverSilhouette, IsTheObjectsDepthInsideItsBoxNotTheSceneryBehind) {
 }
 
 TEST(MoverSilhouette, GrowsByTheMarginTheNextFrameNeeds) {
-  const Image depth = scene_depth();
-  MoverSilhouetteOptions opt;
-  opt.grow_px = 5;
-  const Image m = mover_silhouette(depth, kScale, {{80.0f, 50.0f, 160.0f, 190.0f}}, opt,
-                                   DynamicFilterOptions{});
+  const Image m = walker_silhouette(5);
   EXPECT_EQ(count_set(m), 50 * 130);
   EXPECT_EQ(at(m, 95, 55), 255);
   EXPECT_EQ(at(m, 94, 100), 0);
