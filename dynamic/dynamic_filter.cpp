@@ -844,8 +844,7 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
       // features: ORB corners crowd onto the textured scenery behind a walker, so their median
       // can be the background's while the walker covers most of the core.
       if (depth_image && opt.dense_core_depth && core_depths.size() >= 3) {
-        std::vector<double> surface = largest_surface(
-            *in.cur_depth, in.depth_scale, core, opt.foreground_band_m, opt.foreground_band_rel);
+        std::vector<double> surface = largest_surface(*in.cur_depth, in.depth_scale, core, opt);
         if (surface.size() >= 8) core_depths = std::move(surface);
       }
       if (core_depths.size() < 3) {
@@ -860,7 +859,7 @@ DynamicFilterResult classify_features(const DynamicFilterInput& in,
         continue;
       }
       const double d_fg = median_of(core_depths);
-      const double band = std::max(opt.foreground_band_m, opt.foreground_band_rel * d_fg);
+      const double band = foreground_band(d_fg, opt);
       for (std::size_t i = 0; i < n; ++i) {
         if (in.depth_m[i] > 0 && std::fabs(in.depth_m[i] - d_fg) <= band &&
             std::find(boxes_of[i].begin(), boxes_of[i].end(), static_cast<int>(b)) !=

@@ -45,11 +45,10 @@ Image mover_silhouette(const Image& depth, double depth_scale, const std::vector
   bool any = false;
   for (const BoxRegion& box : boxes) {
     if (box.parked) continue;
-    const std::vector<double> surface = largest_surface(
-        depth, depth_scale, box_core(box), filter.foreground_band_m, filter.foreground_band_rel);
+    const std::vector<double> surface = largest_surface(depth, depth_scale, box_core(box), filter);
     if (static_cast<int>(surface.size()) < opt.min_readings) continue;
     const double d = surface[surface.size() / 2];
-    const double band = std::max(filter.foreground_band_m, filter.foreground_band_rel * d);
+    const double band = foreground_band(d, filter);
     // The band in raw readings, so the loop compares integers.
     const double lo_m = std::max(0.0, d - band), hi_m = d + band;
     const auto lo = static_cast<std::uint32_t>(std::ceil(lo_m * depth_scale));

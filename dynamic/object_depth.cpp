@@ -29,8 +29,12 @@ BoxRegion box_core(const BoxRegion& box) {
           box.y_max - 0.35f * h};
 }
 
+double foreground_band(double depth_m, const DynamicFilterOptions& opt) {
+  return std::max(opt.foreground_band_m, opt.foreground_band_rel * depth_m);
+}
+
 std::vector<double> largest_surface(const Image& depth, double scale, const BoxRegion& region,
-                                    double band_m, double band_rel) {
+                                    const DynamicFilterOptions& opt) {
   std::vector<std::uint16_t> raw;  // sorted as read: the order of their depths
   const int x0 = std::max(0, static_cast<int>(region.x_min));
   const int x1 = std::min(depth.width, static_cast<int>(region.x_max));
@@ -46,7 +50,7 @@ std::vector<double> largest_surface(const Image& depth, double scale, const BoxR
   const auto z = [&](std::size_t k) { return raw[k] / scale; };
   std::size_t best_lo = 0, best_hi = 0, hi = 0;
   for (std::size_t lo = 0; lo < raw.size(); ++lo) {
-    const double width = 2.0 * std::max(band_m, band_rel * z(lo));
+    const double width = 2.0 * foreground_band(z(lo), opt);
     hi = std::max(hi, lo);
     while (hi < raw.size() && z(hi) <= z(lo) + width) ++hi;
     if (hi - lo > best_hi - best_lo) best_lo = lo, best_hi = hi;

@@ -11,7 +11,6 @@
 #include "core/so3.hpp"
 #include "core/thread_cpu_time.hpp"
 #include "detect/dynamic_classes.hpp"
-#include "dynamic/mover_silhouette.hpp"
 #include "imu/inertial_predictor.hpp"
 #include "io/cv_image.hpp"
 #include "io/dataset.hpp"
@@ -150,11 +149,11 @@ DynamicEvalResult evaluate_dynamic_filter(const DynamicEvalScene& scene,
       const Image movers =
           mover_mask(f.gray.width, f.gray.height, last_boxes, options.mover_budget_margin_px);
       Image silhouette;
-      const DynamicEvalFrame* prev = k > 0 ? &scene.frames[k - 1] : nullptr;
-      if (options.mover_silhouettes && prev && !prev->depth.empty() &&
-          prev->depth.width == f.gray.width && prev->depth.height == f.gray.height) {
-        silhouette = dynamic::mover_silhouette(prev->depth, prev->depth_scale, last_boxes,
-                                               options.mover_silhouette, options.filter);
+      if (options.mover_silhouettes && k > 0) {
+        const DynamicEvalFrame& prev = scene.frames[k - 1];
+        silhouette =
+            last_movers_silhouette(prev.depth, prev.depth_scale, last_boxes, f.gray.width,
+                                   f.gray.height, options.mover_silhouette, options.filter);
       }
       const tracking::FrameFeatures ff =
           extractor.extract(f.gray, silhouette.empty() ? nullptr : &silhouette,

@@ -23,4 +23,15 @@ Image mover_mask(int width, int height, const std::vector<dynamic::BoxRegion>& b
   return mask;
 }
 
+Image last_movers_silhouette(const Image& last_depth, double last_depth_scale,
+                             const std::vector<dynamic::BoxRegion>& boxes, int width, int height,
+                             const dynamic::MoverSilhouetteOptions& opt,
+                             const dynamic::DynamicFilterOptions& filter) {
+  if (boxes.empty() || last_depth.empty() || last_depth.width != width ||
+      last_depth.height != height) {
+    return {};
+  }
+  return dynamic::mover_silhouette(last_depth, last_depth_scale, boxes, opt, filter);
+}
+
 }  // namespace kestrel::pipeline

@@ -5,6 +5,7 @@
 
 #include "core/image.hpp"
 #include "dynamic/dynamic_filter.hpp"
+#include "dynamic/mover_silhouette.hpp"
 
 namespace kestrel::pipeline {
 
@@ -16,5 +17,13 @@ inline constexpr int kMoverBudgetMarginPx = 24;
 // 255 inside the boxes that are not parked (a parked vehicle is scenery), grown by `margin`
 // pixels; 0 elsewhere.
 Image mover_mask(int width, int height, const std::vector<dynamic::BoxRegion>& boxes, int margin);
+
+// The last frame's movers pixel by pixel (dynamic::mover_silhouette on its depth), for a frame of
+// width x height: the extractor's `ignore`. Empty when there are no boxes, or the last depth is
+// missing or of another size.
+Image last_movers_silhouette(const Image& last_depth, double last_depth_scale,
+                             const std::vector<dynamic::BoxRegion>& boxes, int width, int height,
+                             const dynamic::MoverSilhouetteOptions& opt,
+                             const dynamic::DynamicFilterOptions& filter);
 
 }  // namespace kestrel::pipeline

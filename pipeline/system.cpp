@@ -745,10 +745,10 @@ struct System::Impl {
         movers = mover_mask(frame.color.width, frame.color.height, last_boxes,
                             options.mover_budget_margin_px);
       }
-      if (options.mover_silhouettes && !last_boxes.empty() && !prev_depth.empty() &&
-          prev_depth.width == frame.color.width && prev_depth.height == frame.color.height) {
-        silhouette = dynamic::mover_silhouette(prev_depth, prev_depth_scale, last_boxes,
-                                               options.mover_silhouette, options.dynamic);
+      if (options.mover_silhouettes) {
+        silhouette =
+            last_movers_silhouette(prev_depth, prev_depth_scale, last_boxes, frame.color.width,
+                                   frame.color.height, options.mover_silhouette, options.dynamic);
       }
       features = tracker.extractor().extract(frame, silhouette.empty() ? nullptr : &silhouette,
                                              movers.empty() ? nullptr : &movers);

@@ -108,7 +108,8 @@ TEST(ObjectDepth, TheLargestSurfaceOfACoreHalfObjectHalfWall) {
     auto* row = depth.row<std::uint16_t>(v);
     for (int u = 0; u < 100; ++u) row[u] = u < 54 ? 2000 + (u % 3) * 10 : 5000;
   }
-  const std::vector<double> s = largest_surface(depth, kScale, {0, 0, 100, 100}, 0.35, 0.12);
+  const std::vector<double> s =
+      largest_surface(depth, kScale, {0, 0, 100, 100}, DynamicFilterOptions{});
   ASSERT_FALSE(s.empty());
   EXPECT_NEAR(s.front(), 2.0, 1e-9);
   EXPECT_NEAR(s.back(), 2.02, 1e-9);
