@@ -43,9 +43,9 @@ struct Row {
   int long_gap = 0;          // multi-frame evidence against frame k - long_gap; 0 off
   bool park = true;          // vehicles seen still are parked (DynamicEvalOptions::park_vehicles)
   bool depth_trail = false;  // DynamicFilterOptions::depth_trail
-  // One feature budget for the whole image (DynamicEvalOptions::mover_budget_margin_px < 0),
-  // as before the scenery got a budget of its own beside the movers' boxes.
-  bool one_budget = false;
+  // The movers' boxes, grown by kMoverBudgetMarginPx, get a feature budget apart from the
+  // scenery's (DynamicEvalOptions::mover_budget_margin_px), as before the silhouettes.
+  bool mover_budget = false;
   // Features extracted on the previous frame's movers too (DynamicEvalOptions::mover_silhouettes
   // off), as before the silhouettes.
   bool no_silhouette = false;
@@ -79,11 +79,11 @@ const Row kRows[] = {
     {"hybrid+oracle, unknown-class mover, depth trail", kOracleUnknown,
      dynamic::FilterMode::kHybrid, 0, true, true},
     {"geometry, depth trail", -1, dynamic::FilterMode::kGeometryOnly, 0, true, true},
-    // The features as the System picked them before the scenery had a budget of its own.
-    {"hybrid+yolo, one feature budget", kYolo, dynamic::FilterMode::kHybrid, 0, true, false, true},
-    {"hybrid+oracle, one feature budget", kOracle, dynamic::FilterMode::kHybrid, 0, true, false,
-     true},
-    // The features as the System picked them before it left the movers' silhouettes out.
+    // The silhouettes with the movers' boxes given a feature budget apart, the System's default
+    // until the budget was turned off.
+    {"hybrid+yolo, mover budget", kYolo, dynamic::FilterMode::kHybrid, 0, true, false, true},
+    {"hybrid+oracle, mover budget", kOracle, dynamic::FilterMode::kHybrid, 0, true, false, true},
+    // Neither: one budget for the whole image, movers included, as before both.
     {"hybrid+yolo, no silhouette", kYolo, dynamic::FilterMode::kHybrid, 0, true, false, false,
      true},
     {"hybrid+oracle, no silhouette", kOracle, dynamic::FilterMode::kHybrid, 0, true, false, false,
@@ -203,7 +203,7 @@ nlohmann::json bench_dynamic(const AreaOptions& o) {
       opt.long_gap = row.long_gap;
       opt.park_vehicles = row.park;
       opt.filter.depth_trail = row.depth_trail;
-      if (row.one_budget) opt.mover_budget_margin_px = -1;
+      if (row.mover_budget) opt.mover_budget_margin_px = pipeline::kMoverBudgetMarginPx;
       if (row.no_silhouette) opt.mover_silhouettes = false;
       std::size_t on_unknown = 0, unknown_removed = 0, on_moving = 0, moving_removed = 0;
       opt.on_frame = [&](const pipeline::DynamicEvalFrame& f, const dynamic::DynamicFilterInput& in,

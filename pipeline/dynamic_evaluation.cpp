@@ -145,9 +145,12 @@ DynamicEvalResult evaluate_dynamic_filter(const DynamicEvalScene& scene,
     in.cur_gray = &f.gray;
     in.points = f.points;
     in.depth_m = f.depth_m;
-    if (options.mover_budget_margin_px >= 0 && !last_boxes.empty()) {
-      const Image movers =
-          mover_mask(f.gray.width, f.gray.height, last_boxes, options.mover_budget_margin_px);
+    if ((options.mover_budget_margin_px >= 0 || options.mover_silhouettes) && !last_boxes.empty()) {
+      Image movers;
+      if (options.mover_budget_margin_px >= 0) {
+        movers =
+            mover_mask(f.gray.width, f.gray.height, last_boxes, options.mover_budget_margin_px);
+      }
       Image silhouette;
       if (options.mover_silhouettes && k > 0) {
         const DynamicEvalFrame& prev = scene.frames[k - 1];
@@ -155,9 +158,9 @@ DynamicEvalResult evaluate_dynamic_filter(const DynamicEvalScene& scene,
             last_movers_silhouette(prev.depth, prev.depth_scale, last_boxes, f.gray.width,
                                    f.gray.height, options.mover_silhouette, options.filter);
       }
-      const tracking::FrameFeatures ff =
-          extractor.extract(f.gray, silhouette.empty() ? nullptr : &silhouette,
-                            f.depth.empty() ? nullptr : &f.depth, f.depth_scale, f.t, &movers);
+      const tracking::FrameFeatures ff = extractor.extract(
+          f.gray, silhouette.empty() ? nullptr : &silhouette, f.depth.empty() ? nullptr : &f.depth,
+          f.depth_scale, f.t, movers.empty() ? nullptr : &movers);
       in.points.clear();
       for (const auto& kp : ff.keypoints) in.points.push_back(kp.px);
       in.depth_m = ff.sensor_depth;

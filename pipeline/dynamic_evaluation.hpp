@@ -75,10 +75,11 @@ struct DynamicEvalOptions {
   // (SystemOptions::box_coasting).
   detect::BoxCoastOptions box_coasting;
   // As SystemOptions::mover_budget_margin_px: a frame after one with mover boxes has its
-  // features extracted again with those boxes set apart (negative: the loader's features).
-  int mover_budget_margin_px = kMoverBudgetMarginPx;
+  // features extracted again with those boxes set apart (negative: off).
+  int mover_budget_margin_px = -1;
   // ... and, as SystemOptions::mover_silhouettes, no features where the previous frame's movers
-  // were (only with the extraction above).
+  // were. With either, such a frame's features are extracted again; with neither, they are the
+  // loader's.
   bool mover_silhouettes = true;
   dynamic::MoverSilhouetteOptions mover_silhouette;
   bool prev_depth = true;  // give the filter the previous frame's depth image

@@ -9,9 +9,10 @@
 
 namespace kestrel::pipeline {
 
-// Twelve lock-step 60 s draws (cafe 1-3, market 1-4, ugv-loop, uav-zigzag 1-4; APE summed):
-// one budget 0.356 m, margin 8 px 0.379, 24 px 0.315; sixteen: 0.542 -> 0.398 at 24 px (README
-// "Dynamic features").
+// The margin of the movers' feature budget when it is on (SystemOptions::mover_budget_margin_px,
+// off by default since the silhouettes). Before them, twelve lock-step 60 s draws (cafe 1-3,
+// market 1-4, ugv-loop, uav-zigzag 1-4; APE summed): one budget 0.356 m, margin 8 px 0.379,
+// 24 px 0.315; sixteen: 0.542 -> 0.398 at 24 px (README "Dynamic features").
 inline constexpr int kMoverBudgetMarginPx = 24;
 
 // 255 inside the boxes that are not parked (a parked vehicle is scenery), grown by `margin`

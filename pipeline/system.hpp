@@ -56,11 +56,13 @@ struct SystemOptions {
   // A mover's box is carried across the frames its detection misses (detect/box_coasting.hpp):
   // predicted from its image velocity for up to box_coasting.max_frames frames.
   detect::BoxCoastOptions box_coasting;
-  // The feature extractor sets the previous frame's mover boxes (grown by this margin, in
-  // pixels) apart: the scenery gets the whole feature budget of its own, and the movers keep
-  // the share they had (tracking::FeatureExtractor::extract). Negative: off, one budget for
-  // the whole image, where a crowd took up to 64% of market's features.
-  int mover_budget_margin_px = kMoverBudgetMarginPx;
+  // The feature extractor may set the previous frame's mover boxes (grown by this margin, in
+  // pixels, kMoverBudgetMarginPx when on) apart: the scenery gets the whole feature budget of
+  // its own, and the movers keep the share they had (tracking::FeatureExtractor::extract).
+  // Negative: off, one budget for the whole image. Off by default since the silhouettes below
+  // keep the movers' corners out of the budget anyway; the split then only reshuffles the
+  // scenery's corners around each walker as the boxes move (README, "Dynamic features").
+  int mover_budget_margin_px = -1;
   // The extractor also leaves out the previous frame's movers themselves, pixel by pixel: the
   // depth readings of each mover box's object, grown (dynamic/mover_silhouette.hpp, which says
   // why; figures in the README, "Dynamic features"). Off: they compete with the scenery for the

@@ -105,6 +105,11 @@ TEST(DynamicEvaluation, ModesOnARenderedCafe) {
   EXPECT_GE(hybrid_silhouettes.counts.static_total, hybrid.counts.static_total * 99 / 100);
   EXPECT_LE(hybrid_silhouettes.counts.dynamic_total - hybrid_silhouettes.counts.dynamic_removed,
             hybrid.counts.dynamic_total - hybrid.counts.dynamic_removed);
+  // The silhouettes alone (the System's defaults, no budget apart) re-extract the frames too.
+  const DynamicEvalResult silhouettes_alone =
+      run(dynamic::FilterMode::kHybrid, 0, 0, detect::BoxCoastOptions{}.max_frames, -1, true);
+  EXPECT_LT(silhouettes_alone.counts.dynamic_total, hybrid_one.counts.dynamic_total / 2);
+  EXPECT_GE(silhouettes_alone.counts.static_total, hybrid_one.counts.static_total * 99 / 100);
   // Truth boxes remove most movers (not all: the first frame is not judged, and the chairs
   // that are pushed later are movers of a class outside the dynamic list, standing still);
   // hybrid keeps more of the static scene than boxes alone.
