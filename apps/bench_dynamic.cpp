@@ -44,7 +44,8 @@ struct Row {
   bool park = true;          // vehicles seen still are parked (DynamicEvalOptions::park_vehicles)
   bool depth_trail = false;  // DynamicFilterOptions::depth_trail
   // The movers' boxes, grown by kMoverBudgetMarginPx, get a feature budget apart from the
-  // scenery's (DynamicEvalOptions::mover_budget_margin_px), as before the silhouettes.
+  // scenery's (DynamicEvalOptions::mover_budget_margin_px), as the System did until beside the
+  // silhouettes it cost more than it gave.
   bool mover_budget = false;
   // Features extracted on the previous frame's movers too (DynamicEvalOptions::mover_silhouettes
   // off), as before the silhouettes.
