@@ -145,22 +145,18 @@ DynamicEvalResult evaluate_dynamic_filter(const DynamicEvalScene& scene,
     in.cur_gray = &f.gray;
     in.points = f.points;
     in.depth_m = f.depth_m;
-    if ((options.mover_budget_margin_px >= 0 || options.mover_silhouettes) && !last_boxes.empty()) {
-      Image movers;
-      if (options.mover_budget_margin_px >= 0) {
-        movers =
-            mover_mask(f.gray.width, f.gray.height, last_boxes, options.mover_budget_margin_px);
-      }
-      Image silhouette;
-      if (options.mover_silhouettes && k > 0) {
-        const DynamicEvalFrame& prev = scene.frames[k - 1];
-        silhouette =
-            last_movers_silhouette(prev.depth, prev.depth_scale, last_boxes, f.gray.width,
-                                   f.gray.height, options.mover_silhouette, options.filter);
-      }
-      const tracking::FrameFeatures ff = extractor.extract(
-          f.gray, silhouette.empty() ? nullptr : &silhouette, f.depth.empty() ? nullptr : &f.depth,
-          f.depth_scale, f.t, movers.empty() ? nullptr : &movers);
+    // The last boxes are the previous frame's: none on the first.
+    const LastMoverMasks m =
+        k == 0 ? LastMoverMasks{}
+               : last_mover_masks(last_boxes, scene.frames[k - 1].depth,
+                                  scene.frames[k - 1].depth_scale, f.gray.width, f.gray.height,
+                                  options.mover_budget_margin_px, options.mover_silhouettes,
+                                  options.mover_silhouette, options.filter);
+    if (m.any()) {
+      const tracking::FrameFeatures ff =
+          extractor.extract(f.gray, m.silhouette.empty() ? nullptr : &m.silhouette,
+                            f.depth.empty() ? nullptr : &f.depth, f.depth_scale, f.t,
+                            m.movers.empty() ? nullptr : &m.movers);
       in.points.clear();
       for (const auto& kp : ff.keypoints) in.points.push_back(kp.px);
       in.depth_m = ff.sensor_depth;

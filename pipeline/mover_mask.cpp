@@ -23,15 +23,19 @@ Image mover_mask(int width, int height, const std::vector<dynamic::BoxRegion>& b
   return mask;
 }
 
-Image last_movers_silhouette(const Image& last_depth, double last_depth_scale,
-                             const std::vector<dynamic::BoxRegion>& boxes, int width, int height,
-                             const dynamic::MoverSilhouetteOptions& opt,
-                             const dynamic::DynamicFilterOptions& filter) {
-  if (boxes.empty() || last_depth.empty() || last_depth.width != width ||
-      last_depth.height != height) {
-    return {};
+LastMoverMasks last_mover_masks(const std::vector<dynamic::BoxRegion>& boxes,
+                                const Image& last_depth, double last_depth_scale, int width,
+                                int height, int budget_margin_px, bool silhouettes,
+                                const dynamic::MoverSilhouetteOptions& opt,
+                                const dynamic::DynamicFilterOptions& filter) {
+  LastMoverMasks out;
+  if (boxes.empty()) return out;
+  if (budget_margin_px >= 0) out.movers = mover_mask(width, height, boxes, budget_margin_px);
+  if (silhouettes && !last_depth.empty() && last_depth.width == width &&
+      last_depth.height == height) {
+    out.silhouette = dynamic::mover_silhouette(last_depth, last_depth_scale, boxes, opt, filter);
   }
-  return dynamic::mover_silhouette(last_depth, last_depth_scale, boxes, opt, filter);
+  return out;
 }
 
 }  // namespace kestrel::pipeline

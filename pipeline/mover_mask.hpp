@@ -19,12 +19,22 @@ inline constexpr int kMoverBudgetMarginPx = 24;
 // pixels; 0 elsewhere.
 Image mover_mask(int width, int height, const std::vector<dynamic::BoxRegion>& boxes, int margin);
 
-// The last frame's movers pixel by pixel (dynamic::mover_silhouette on its depth), for a frame of
-// width x height: the extractor's `ignore`. Empty when there are no boxes, or the last depth is
-// missing or of another size.
-Image last_movers_silhouette(const Image& last_depth, double last_depth_scale,
-                             const std::vector<dynamic::BoxRegion>& boxes, int width, int height,
-                             const dynamic::MoverSilhouetteOptions& opt,
-                             const dynamic::DynamicFilterOptions& filter);
+// What a frame's extraction sets apart from the last frame's movers (`boxes`), before its own
+// boxes arrive; the System and the bench's evaluator both take them from here.
+struct LastMoverMasks {
+  // The movers pixel by pixel (dynamic::mover_silhouette on the last frame's depth): the
+  // extractor's `ignore`. Empty when off, with no boxes, or the last depth missing or of
+  // another size.
+  Image silhouette;
+  // mover_mask grown by the budget's margin: the extractor's `movers`. Empty when the margin is
+  // negative or there are no boxes.
+  Image movers;
+  bool any() const { return !silhouette.empty() || !movers.empty(); }
+};
+LastMoverMasks last_mover_masks(const std::vector<dynamic::BoxRegion>& boxes,
+                                const Image& last_depth, double last_depth_scale, int width,
+                                int height, int budget_margin_px, bool silhouettes,
+                                const dynamic::MoverSilhouetteOptions& opt,
+                                const dynamic::DynamicFilterOptions& filter);
 
 }  // namespace kestrel::pipeline

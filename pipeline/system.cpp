@@ -740,18 +740,12 @@ struct System::Impl {
     if (!q.right.empty()) {
       features = process_stereo(q);
     } else {
-      Image movers, silhouette;
-      if (options.mover_budget_margin_px >= 0 && !last_boxes.empty()) {
-        movers = mover_mask(frame.color.width, frame.color.height, last_boxes,
-                            options.mover_budget_margin_px);
-      }
-      if (options.mover_silhouettes) {
-        silhouette =
-            last_movers_silhouette(prev_depth, prev_depth_scale, last_boxes, frame.color.width,
-                                   frame.color.height, options.mover_silhouette, options.dynamic);
-      }
-      features = tracker.extractor().extract(frame, silhouette.empty() ? nullptr : &silhouette,
-                                             movers.empty() ? nullptr : &movers);
+      const LastMoverMasks m =
+          last_mover_masks(last_boxes, prev_depth, prev_depth_scale, frame.color.width,
+                           frame.color.height, options.mover_budget_margin_px,
+                           options.mover_silhouettes, options.mover_silhouette, options.dynamic);
+      features = tracker.extractor().extract(frame, m.silhouette.empty() ? nullptr : &m.silhouette,
+                                             m.movers.empty() ? nullptr : &m.movers);
     }
     stats.record("features", ms_since(t0));
     report.features = static_cast<int>(features.size());
