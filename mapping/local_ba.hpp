@@ -29,9 +29,18 @@ struct LocalBaOptions {
   int iterations = 10;          // Levenberg-Marquardt steps per stage
   double chi2_outlier = 5.991;  // 2-dof observations above this (level-sigma units) are dropped
   double chi2_outlier_depth = 7.815;  // the same with the depth term (3 dof)
-  // Depth enters as the disparity of a virtual stereo rig, bf / z in pixels (ORB-SLAM's RGB-D
-  // model; its TUM settings use bf = 40). It pins the scale that reprojection alone leaves free.
-  double virtual_bf = 40.0;
+  // Depth enters as the disparity of a virtual stereo rig, bf / z in pixels, weighed like a
+  // pixel of the keypoint's level (ORB-SLAM's RGB-D model). It pins the scale that reprojection
+  // alone leaves free. A one-pixel disparity at bf = B is a depth sigma of z^2 / B, so B says
+  // how much the sensor's depth is trusted: ORB-SLAM's TUM settings use 40 (sigma 0.025 z^2,
+  // 22 cm at 3 m), an eighth of what a Kinect or a RealSense D455 reads, and the map then drifted
+  // in scale: cafe draws with and without their walkers ended 0.4-1.1% too large or small, their
+  // APE mostly that. 333 is sigma 0.003 z^2, the noise of the simulator's D455-like sensor and
+  // about a Kinect v1's (TUM). A stereo rig's depth uses its own fx times baseline instead
+  // (pipeline/system.cpp). 14 lock-step draws (cafe 1-4, market 1-4, uav-zigzag 1-4, ugv-loop
+  // 1-2), APE summed: 40 -> 200 -> 333 with the same term in each frame's pose optimization,
+  // 0.236 -> 0.179 -> 0.166 m; figures per draw in the README.
+  double virtual_bf = 333.0;
   // Keyframes' gyro links (Keyframe::gyro) as rotation factors between them: off, the map is
   // vision's alone.
   bool gyro_links = true;

@@ -263,6 +263,8 @@ struct System::Impl {
                   tracking::TrackerOptions t = options.tracker;
                   if (options.async_local_ba) t.inline_mapping = false;
                   t.ba.inertial = options.inertial_ba && options.gyro_links;
+                  // Stereo depth is as good as its matching: a pixel of the rig's own disparity.
+                  if (c.is_stereo()) t.ba.virtual_bf = c.camera.fx * c.stereo_rig().baseline();
                   if (!options.inertial_prior) {
                     t.prior_in_optimization = false;
                     t.prior_gate_chi2 = options.inertial_gate_chi2;

@@ -587,13 +587,16 @@ PoseOptimizerResult Tracker::optimize(const FrameFeatures& f, Matched& m, const 
   for (std::size_t i = 0; i < f.size(); ++i) {
     const auto* p = map_.point(m.point[i]);
     if (!p) continue;
-    obs.push_back({p->p_w, f.keypoints[i].un, 1.0 / f.level_sigma2(f.keypoints[i].level)});
+    obs.push_back({p->p_w, f.keypoints[i].un, 1.0 / f.level_sigma2(f.keypoints[i].level),
+                   f.has_depth(i) ? f.depth[i] : 0.0});
     feature_of.push_back(i);
   }
   const PosePrior* prior = prior_ && (with_prior || options_.prior_in_optimization) ? &*prior_
                            : rotation_prior_ ? &*rotation_prior_
                                              : nullptr;
-  PoseOptimizerResult r = optimize_pose(camera_, obs, T_c_w, options_.pose, prior);
+  PoseOptimizerOptions po = options_.pose;
+  po.virtual_bf = options_.ba.virtual_bf;
+  PoseOptimizerResult r = optimize_pose(camera_, obs, T_c_w, po, prior);
   m.count = 0;
   for (std::size_t k = 0; k < obs.size(); ++k) {
     if (!r.inlier[k]) {

@@ -168,6 +168,62 @@ TEST(PoseOptimizer, ManyGoodPointsOutweighAWrongPrior) {
   EXPECT_LT(rotation_error_deg(r.T_c_w, T_c_w), 0.05);
 }
 
+TEST(PoseOptimizer, TheFramesOwnDepthPinsWhatFarPointsLeaveOpen) {
+  // Sixty points on one small patch 6 m away: moving along the view barely changes where they
+  // project (15 cm there is under a pixel), so reprojection alone leaves the distance to the
+  // patch to the pixel noise. Their depth, read by the frame itself with a D455's noise
+  // (0.003 z^2, 11 cm there), pins it.
+  const PinholeCamera cam = camera();
+  const SE3 T_c_w(SO3::exp(Vec3(0.02, -0.05, 0.01)), Vec3(0.1, 0.0, -0.2));
+  std::mt19937 rng(4);
+  std::normal_distribution<double> n(0.0, 1.0);
+  std::vector<PoseObservation> obs;
+  for (int i = 0; i < 60; ++i) {
+    const Vec2 px(260 + 10 * (i % 12), 220 + 10 * (i / 12));
+    const double z = 6.0 + 0.05 * n(rng);
+    obs.push_back({T_c_w.inverse() * (cam.unproject(px) * z), px + Vec2(n(rng), n(rng)), 1.0,
+                   z + 0.003 * z * z * n(rng)});
+  }
+  // The camera centre's error along the view, in the true camera's frame.
+  const auto along_view = [&](const SE3& T) {
+    return std::abs((T_c_w * T.inverse().translation()).z());
+  };
+  Vec6 d;
+  d << 0.0, 0.0, 0.15, 0.0, 0.0, 0.0;  // 15 cm along the view
+  PoseOptimizerOptions o;
+  o.min_inliers = 6;
+  o.virtual_bf = 333.0;
+  const PoseOptimizerResult with = optimize_pose(cam, obs, SE3::exp(d) * T_c_w, o);
+  ASSERT_TRUE(with.ok);
+  EXPECT_LT(along_view(with.T_c_w), 0.04);
+  o.virtual_bf = 0.0;
+  const PoseOptimizerResult without = optimize_pose(cam, obs, SE3::exp(d) * T_c_w, o);
+  const double e_without = without.ok ? along_view(without.T_c_w) : 1e9;
+  EXPECT_GT(e_without, 3.0 * along_view(with.T_c_w))
+      << "reprojection alone should not pin the distance: " << e_without << " m";
+}
+
+TEST(PoseOptimizer, AnObservationWhoseDepthDisagreesIsAnOutlier) {
+  // A walker between the camera and the point: the pixel matches, the depth does not.
+  const PinholeCamera cam = camera();
+  const SE3 T_c_w(SO3::exp(Vec3(-0.05, 0.1, 0.02)), Vec3(-0.3, 0.1, 0.2));
+  const Scene s = make_scene(cam, T_c_w, 200, 0.5, 0.0, 13);
+  std::vector<PoseObservation> obs;
+  for (std::size_t i = 0; i < s.points_w.size(); ++i) {
+    obs.push_back({s.points_w[i], s.uv[i], 1.0, (T_c_w * s.points_w[i]).z()});
+  }
+  obs[7].depth *= 0.6;
+  PoseOptimizerOptions o;
+  o.virtual_bf = 333.0;
+  const PoseOptimizerResult r = optimize_pose(cam, obs, T_c_w, o);
+  ASSERT_TRUE(r.ok);
+  EXPECT_EQ(r.inlier[7], 0);
+  EXPECT_GE(r.inliers, 195);
+  EXPECT_LT(translation_error(r.T_c_w, T_c_w), 2e-3);
+  o.virtual_bf = 0.0;  // pixels alone cannot tell
+  EXPECT_EQ(optimize_pose(cam, obs, T_c_w, o).inlier[7], 1);
+}
+
 TEST(PoseOptimizer, TooFewObservationsIsNotOkAndKeepsTheInitialPose) {
   const PinholeCamera cam = camera();
   const SE3 T;
